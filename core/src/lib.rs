@@ -1,0 +1,38 @@
+//! # kdray-core
+//!
+//! A `no_std`, allocation-free ray-tracing core: the scalar reference math of kdray (rays,
+//! Möller–Trumbore triangles, cancellation-free spheres, reflection, refraction, Fresnel,
+//! hemisphere sampling, cameras), on which the kd-tree traversal and the SIMD packet kernels are
+//! built and against which they are tested.
+//!
+//! ## Guarantees
+//! - `#![no_std]`, never links `alloc`, `#![forbid(unsafe_code)]`. Float functions that `core`
+//!   lacks come from `libm` through one shim module ([`math`]), so the thumbv7em and wasm32 builds
+//!   run the same code the host tests run.
+//! - No function panics on any float input. NaN conventions: every hit test is written so that
+//!   a NaN anywhere makes it fail, so a NaN ray or primitive is a miss, never a hit with NaN `t`.
+//!
+//! ## Modules
+//! - [`ray`]: [`Ray`] and [`Hit`].
+//! - [`triangle`]: Möller–Trumbore (seed §4), barycentric interpolation, normals.
+//! - [`sphere`]: the cancellation-free sphere test (Ray Tracing Gems ch. 7).
+//! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (seed §5).
+//! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
+//! - [`camera`]: pinhole, the seed's fisheye and parallel cameras.
+//!
+//! The seed document is `shared/seed/ray-tracing-equations.txt`; equation numbers in the docs
+//! refer to it, with the corrections of its `NOTES.md`.
+#![no_std]
+#![forbid(unsafe_code)]
+
+pub mod camera;
+pub mod math;
+pub mod optics;
+pub mod ray;
+pub mod sampling;
+pub mod sphere;
+pub mod triangle;
+
+pub use ray::{Hit, Ray};
+pub use sphere::Sphere;
+pub use triangle::Triangle;

@@ -1,0 +1,118 @@
+//! Ray/triangle intersection: Möller & Trumbore 1997, "Fast, Minimum Storage Ray-Triangle
+//! Intersection", in the seed's cofactor form (§4, equations (13)–(27)).
+//!
+//! The seed writes the hit condition `o + t·d = e + α(f − e) + β(g − e)` as the linear system
+//! `o − e = [−d, f − e, g − e]·(t, α, β)ᵀ` (equation (16); NOTES.md restores the lost sign of the
+//! `−d` column) and solves it with the adjugate over the determinant (equations (17)–(23)). Each
+//! cofactor of that 3×3 system is a scalar triple product, which is what Möller–Trumbore computes:
+//! with `e1 = f − e`, `e2 = g − e`, `s = o − e`, `p = d × e2`, `q = s × e1`
+//!
+//! ```text
+//! det = e1·p            (= det[−d, e1, e2], equation (23))
+//! α   = s·p  / det      (Cramer's rule on the α column)
+//! β   = d·q  / det      (… the β column)
+//! t   = e2·q / det      (… the t column)
+//! ```
+//!
+//! so the two forms are the same arithmetic ordered to share `p` and `q`.
+//!
+//! Triangles are stored as `(v0, e1, e2)`, the layout the kernels load.
+
+use crate::ray::Ray;
+use glam::Vec3;
+
+/// Below this `|det| / |e1 × e2|` (the sine of the angle between the ray and the triangle's
+/// plane) a ray counts as parallel to the triangle: its `t` would be dominated by rounding.
+/// About 2⁻²² rad, a few ULPs of a unit vector.
+pub const PARALLEL_SIN: f32 = 2.384_185_8e-7;
+
+/// A triangle in the kernels' layout: `v0` and the two edges from it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    pub v0: Vec3,
+    pub e1: Vec3,
+    pub e2: Vec3,
+}
+
+impl Triangle {
+    /// From the three vertices `e`, `f`, `g` of the seed (`v0`, `v1`, `v2`).
+    #[inline]
+    pub fn from_vertices(v0: Vec3, v1: Vec3, v2: Vec3) -> Self {
+        Self {
+            v0,
+            e1: v1 - v0,
+            e2: v2 - v0,
+        }
+    }
+
+    /// The vertices back: `(v0, v0 + e1, v0 + e2)`.
+    #[inline]
+    pub fn vertices(&self) -> [Vec3; 3] {
+        [self.v0, self.v0 + self.e1, self.v0 + self.e2]
+    }
+
+    /// The unnormalized geometric normal `(f − e) × (g − e)` (NOTES.md's correction of the seed's
+    /// equations (24)–(27)); its length is twice the area, zero for a degenerate triangle.
+    #[inline]
+    pub fn geometric_normal(&self) -> Vec3 {
+        self.e1.cross(self.e2)
+    }
+
+    /// True when the triangle has no area (coincident or collinear vertices); it is never hit.
+    #[inline]
+    pub fn is_degenerate(&self) -> bool {
+        self.geometric_normal().length_squared() == 0.0
+    }
+
+    /// Möller–Trumbore: the hit `(t, α, β)` with `tmin < t < tmax`, `α ≥ 0`, `β ≥ 0`, `α + β ≤ 1`.
+    ///
+    /// Returns `None` for a miss, a ray parallel to the plane (see [`PARALLEL_SIN`]), a degenerate
+    /// triangle, and whenever any input is NaN: every test is written so that NaN fails it.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<(f32, f32, f32)> {
+        let n2 = self.geometric_normal().length_squared();
+        let p = ray.dir.cross(self.e2);
+        let det = self.e1.dot(p);
+        // `!(x > y)` rather than `x <= y` so that NaN counts as parallel.
+        if n2 == 0.0 || !(det * det > PARALLEL_SIN * PARALLEL_SIN * n2) {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let s = ray.origin - self.v0;
+        let a = s.dot(p) * inv;
+        if !(a >= 0.0 && a <= 1.0) {
+            return None;
+        }
+        let q = s.cross(self.e1);
+        let b = ray.dir.dot(q) * inv;
+        if !(b >= 0.0 && a + b <= 1.0) {
+            return None;
+        }
+        let t = self.e2.dot(q) * inv;
+        if t > ray.tmin && t < ray.tmax {
+            Some((t, a, b))
+        } else {
+            None
+        }
+    }
+}
+
+/// Interpolates per-vertex values with barycentrics `(α, β)` (seed note under equation (13)):
+/// `a + α(b − a) + β(c − a)`, written as `(1 − α − β)·a + α·b + β·c` so that each vertex value is
+/// reproduced exactly at its corner.
+#[inline]
+pub fn interpolate<T>(values: [T; 3], alpha: f32, beta: f32) -> T
+where
+    T: Copy + core::ops::Mul<f32, Output = T> + core::ops::Add<Output = T>,
+{
+    values[0] * (1.0 - alpha - beta) + values[1] * alpha + values[2] * beta
+}
+
+/// The shading normal at `(α, β)` from per-vertex normals, normalized; falls back to `fallback`
+/// (normally the geometric normal) when the interpolated normal vanishes or is not finite.
+#[inline]
+pub fn shading_normal(normals: [Vec3; 3], alpha: f32, beta: f32, fallback: Vec3) -> Vec3 {
+    interpolate(normals, alpha, beta)
+        .try_normalize()
+        .unwrap_or(fallback)
+}

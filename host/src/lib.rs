@@ -1,0 +1,4 @@
+//! # kdray (host)
+//!
+//! The `std` side of kdray: loads meshes and scenes, builds the SAH kd-tree, serializes it into the
+//! flat word array that `kdray-core` traverses, and drives the `kdray` command line.
