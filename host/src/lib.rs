@@ -2,3 +2,9 @@
 //!
 //! The `std` side of kdray: loads meshes and scenes, builds the SAH kd-tree, serializes it into the
 //! flat word array that `kdray-core` traverses, and drives the `kdray` command line.
+
+pub mod error;
+pub mod geometry;
+
+pub use error::{Error, Result};
+pub use geometry::Geometry;
