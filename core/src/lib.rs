@@ -1,16 +1,18 @@
 //! # kdray-core
 //!
-//! A `no_std`, allocation-free ray-tracing core: the scalar reference math of kdray (rays,
-//! Möller–Trumbore triangles, cancellation-free spheres, reflection, refraction, Fresnel,
-//! hemisphere sampling, cameras), on which the kd-tree traversal and the SIMD packet kernels are
-//! built and against which they are tested.
+//! A `no_std`, allocation-free ray-tracing core: it traverses a prebuilt SAH kd-tree stored as one
+//! flat array of words, and holds the scalar reference math of kdray (rays, Möller–Trumbore
+//! triangles, cancellation-free spheres, reflection, refraction, Fresnel, hemisphere sampling,
+//! cameras) against which the SIMD packet kernels are tested.
 //!
 //! ## Guarantees
 //! - `#![no_std]`, never links `alloc`, `#![forbid(unsafe_code)]`. Float functions that `core`
 //!   lacks come from `libm` through one shim module ([`math`]), so the thumbv7em and wasm32 builds
 //!   run the same code the host tests run.
-//! - No function panics on any float input. NaN conventions: every hit test is written so that
-//!   a NaN anywhere makes it fail, so a NaN ray or primitive is a miss, never a hit with NaN `t`.
+//! - [`Scene::from_words`] validates a word array once, in linear time, and never panics on any
+//!   input; every later access relies on what it validated (see [`format`]).
+//! - NaN conventions: every hit test is written so that a NaN anywhere makes it fail, so a NaN ray
+//!   or primitive is a miss, never a hit with NaN `t`; a non-finite ray is a miss in traversal.
 //!
 //! ## Modules
 //! - [`ray`]: [`Ray`] and [`Hit`].
@@ -19,6 +21,8 @@
 //! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (seed §5).
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
 //! - [`camera`]: pinhole, the seed's fisheye and parallel cameras.
+//! - [`format`], [`node`]: the flat scene format and its validation.
+//! - [`traverse`]: scalar closest-hit and any-hit traversal.
 //!
 //! The seed document is `shared/seed/ray-tracing-equations.txt`; equation numbers in the docs
 //! refer to it, with the corrections of its `NOTES.md`.
@@ -26,13 +30,17 @@
 #![forbid(unsafe_code)]
 
 pub mod camera;
+pub mod format;
 pub mod math;
+pub mod node;
 pub mod optics;
 pub mod ray;
 pub mod sampling;
 pub mod sphere;
+pub mod traverse;
 pub mod triangle;
 
+pub use format::{FormatError, Scene};
 pub use ray::{Hit, Ray};
 pub use sphere::Sphere;
 pub use triangle::Triangle;

@@ -1,0 +1,575 @@
+//! The flat scene format: one `&[u32]` of little-endian words, built by the host and validated
+//! once by [`Scene::from_words`]; every later access relies on what was validated here.
+//!
+//! # Header (word index: meaning)
+//! ```text
+//!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
+//!  1  VERSION         1
+//!  2  CONTENTS        bit set, see `contents::*`: which sections are present
+//!  3  TOTAL_WORDS     length of the whole array in words (catches truncation and trailing data)
+//!  4  NODE_COUNT      kd-tree nodes (≥ 1; 2 words each)
+//!  5  TRI_COUNT       triangles; primitives 0 .. TRI_COUNT are triangles in input order
+//!  6  SPHERE_COUNT    spheres; primitives TRI_COUNT .. TRI_COUNT + SPHERE_COUNT
+//!  7  INDEX_COUNT     words in the leaf primitive-index list
+//!  8  DEPTH           depth of the tree (root alone = 0), at most `MAX_DEPTH`
+//!  9..15 BOUNDS       scene box: min x, y, z, max x, y, z (f32 bits)
+//! 15  NODES_OFFSET    word offset of the nodes section
+//! 16  INDICES_OFFSET  … of the primitive-index list (0 when INDEX_COUNT = 0)
+//! 17  TRIS_OFFSET     … of the triangles (0 when absent)
+//! 18  SPHERES_OFFSET  … of the spheres (0 when absent)
+//! 19  NORMALS_OFFSET  … of per-vertex normals (0 when absent)
+//! 20  UVS_OFFSET      … of texture coordinates (0 when absent)
+//! 21  MATERIALS_OFFSET … of per-primitive material ids (0 when absent)
+//! 22  BUILD_MS        build time in milliseconds (f32 bits): information only, not validated
+//! 23..32              reserved, must be 0
+//! ```
+//! Sections start on multiples of 8 words (32 bytes), lie inside `HEADER_WORDS .. TOTAL_WORDS`
+//! and do not overlap. A section the scene does not need is absent (offset 0, bit clear), not
+//! filled with zeros.
+//!
+//! # Sections
+//! - **Nodes**, 2 words each, pbrt-v3's `KdAccelNode` layout ([`Node`]).
+//! - **Indices**: `u32` primitive ids, referenced by leaves with more than one primitive.
+//! - **Triangles**: 9 f32 each, `v0, e1 = v1 − v0, e2 = v2 − v0`, the layout Möller–Trumbore
+//!   loads (see [`crate::triangle`]).
+//! - **Spheres**: 4 f32 each, centre and radius (> 0).
+//! - **Normals**: 9 f32 per triangle, the normals at `v0, v1, v2`.
+//! - **UVs**: 6 f32 per triangle, the texture coordinates at `v0, v1, v2`.
+//! - **Materials**: one `u32` per primitive (triangles, then spheres).
+
+use crate::node::{LEAF, Node};
+use crate::sphere::Sphere;
+use crate::triangle::Triangle;
+use glam::Vec3;
+
+/// "KDRY" as a little-endian word.
+pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
+/// The format version this core reads and the host writes.
+pub const VERSION: u32 = 1;
+/// Words before the first section.
+pub const HEADER_WORDS: usize = 32;
+/// Sections are aligned to this many words (32 bytes).
+pub const SECTION_ALIGN: usize = 8;
+/// The deepest tree the fixed traversal stacks accept. pbrt-v3's depth rule
+/// `8 + 1.3·log2(N)` reaches 48 only at N ≈ 2³¹ primitives.
+pub const MAX_DEPTH: usize = 64;
+
+/// Header word indices.
+pub mod header {
+    pub const MAGIC: usize = 0;
+    pub const VERSION: usize = 1;
+    pub const CONTENTS: usize = 2;
+    pub const TOTAL_WORDS: usize = 3;
+    pub const NODE_COUNT: usize = 4;
+    pub const TRI_COUNT: usize = 5;
+    pub const SPHERE_COUNT: usize = 6;
+    pub const INDEX_COUNT: usize = 7;
+    pub const DEPTH: usize = 8;
+    pub const BOUNDS: usize = 9;
+    pub const NODES_OFFSET: usize = 15;
+    pub const INDICES_OFFSET: usize = 16;
+    pub const TRIS_OFFSET: usize = 17;
+    pub const SPHERES_OFFSET: usize = 18;
+    pub const NORMALS_OFFSET: usize = 19;
+    pub const UVS_OFFSET: usize = 20;
+    pub const MATERIALS_OFFSET: usize = 21;
+    pub const BUILD_MS: usize = 22;
+    /// First reserved word; `RESERVED .. HEADER_WORDS` must be zero.
+    pub const RESERVED: usize = 23;
+}
+
+/// The CONTENTS bits.
+pub mod contents {
+    pub const TRIANGLES: u32 = 1 << 0;
+    pub const SPHERES: u32 = 1 << 1;
+    pub const NORMALS: u32 = 1 << 2;
+    pub const UVS: u32 = 1 << 3;
+    pub const MATERIALS: u32 = 1 << 4;
+    /// Every bit this version defines.
+    pub const ALL: u32 = TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS;
+}
+
+/// Words per element of each section.
+pub mod stride {
+    pub const NODE: usize = 2;
+    pub const TRIANGLE: usize = 9;
+    pub const SPHERE: usize = 4;
+    pub const NORMALS: usize = 9;
+    pub const UVS: usize = 6;
+}
+
+/// Why a word array is not a scene. Each kind of corruption has its own variant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FormatError {
+    /// Fewer words than the header.
+    TooShort,
+    BadMagic,
+    UnsupportedVersion(u32),
+    /// CONTENTS has bits this version does not define, or disagrees with the counts/offsets.
+    BadContents,
+    /// TOTAL_WORDS differs from the array's length (truncated or with trailing data).
+    LengthMismatch {
+        header: u32,
+        actual: usize,
+    },
+    /// A reserved header word is not zero.
+    ReservedNotZero,
+    /// A count times its stride overflows `usize`, or the primitive total overflows `u32`.
+    CountOverflow,
+    /// A section starts inside the header, is misaligned or runs past the end.
+    SectionOutOfBounds,
+    /// Two sections share words.
+    SectionsOverlap,
+    /// The scene bounds are not finite or min > max.
+    BadBounds,
+    /// A triangle, sphere, normal or texture coordinate is NaN or infinite, or a radius ≤ 0.
+    NonFiniteGeometry,
+    /// The tree has no node, or its depth exceeds [`MAX_DEPTH`] or disagrees with DEPTH.
+    BadDepth,
+    /// An interior node's split is not finite.
+    BadSplit {
+        node: u32,
+    },
+    /// A child index is not greater than its parent's, is out of range, or the nodes are not one
+    /// tree in depth-first order (a shared or skipped node).
+    BadChild {
+        node: u32,
+    },
+    /// A leaf references a primitive or an index-list range that does not exist.
+    BadPrimitive {
+        node: u32,
+    },
+}
+
+impl core::fmt::Display for FormatError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::TooShort => write!(f, "shorter than the {HEADER_WORDS}-word header"),
+            Self::BadMagic => write!(f, "not a kdray scene (bad magic)"),
+            Self::UnsupportedVersion(v) => {
+                write!(f, "format version {v}, this build reads {VERSION}")
+            }
+            Self::BadContents => write!(f, "contents bits disagree with the sections"),
+            Self::LengthMismatch { header, actual } => {
+                write!(
+                    f,
+                    "header says {header} words, the data has {actual} (truncated or padded)"
+                )
+            }
+            Self::ReservedNotZero => write!(f, "reserved header words are not zero"),
+            Self::CountOverflow => write!(f, "a count overflows"),
+            Self::SectionOutOfBounds => {
+                write!(f, "a section lies outside the data or is misaligned")
+            }
+            Self::SectionsOverlap => write!(f, "two sections overlap"),
+            Self::BadBounds => write!(f, "scene bounds are not finite"),
+            Self::NonFiniteGeometry => {
+                write!(f, "geometry has NaN/infinite values or a radius <= 0")
+            }
+            Self::BadDepth => write!(f, "tree depth is zero-sized, above {MAX_DEPTH} or wrong"),
+            Self::BadSplit { node } => write!(f, "node {node}: split plane is not finite"),
+            Self::BadChild { node } => write!(f, "node {node}: child index breaks the tree order"),
+            Self::BadPrimitive { node } => {
+                write!(f, "node {node}: primitive reference out of range")
+            }
+        }
+    }
+}
+
+/// A validated scene borrowing its words.
+#[derive(Clone, Copy, Debug)]
+pub struct Scene<'a> {
+    contents: u32,
+    build_ms: f32,
+    depth: u32,
+    bounds: [Vec3; 2],
+    nodes: &'a [u32],
+    indices: &'a [u32],
+    tris: &'a [f32],
+    spheres: &'a [f32],
+    normals: &'a [f32],
+    uvs: &'a [f32],
+    materials: &'a [u32],
+}
+
+/// A section's place: offset word, element count, words per element, contents bit (0 = always).
+struct SectionSpec {
+    offset_word: usize,
+    count: usize,
+    stride: usize,
+    bit: u32,
+}
+
+impl<'a> Scene<'a> {
+    /// Validates `words` and returns a view of it. Runs in time linear in its length and never
+    /// panics, whatever the words.
+    ///
+    /// # Errors
+    /// The first problem found, as a [`FormatError`].
+    pub fn from_words(words: &'a [u32]) -> Result<Self, FormatError> {
+        if words.len() < HEADER_WORDS {
+            return Err(FormatError::TooShort);
+        }
+        let h = |i: usize| words[i];
+        if h(header::MAGIC) != MAGIC {
+            return Err(FormatError::BadMagic);
+        }
+        if h(header::VERSION) != VERSION {
+            return Err(FormatError::UnsupportedVersion(h(header::VERSION)));
+        }
+        if h(header::TOTAL_WORDS) as usize != words.len() {
+            return Err(FormatError::LengthMismatch {
+                header: h(header::TOTAL_WORDS),
+                actual: words.len(),
+            });
+        }
+        if words[header::RESERVED..HEADER_WORDS]
+            .iter()
+            .any(|&w| w != 0)
+        {
+            return Err(FormatError::ReservedNotZero);
+        }
+        let contents = h(header::CONTENTS);
+        let (n_nodes, n_tris, n_spheres, n_indices) = (
+            h(header::NODE_COUNT) as usize,
+            h(header::TRI_COUNT) as usize,
+            h(header::SPHERE_COUNT) as usize,
+            h(header::INDEX_COUNT) as usize,
+        );
+        let n_prims = h(header::TRI_COUNT)
+            .checked_add(h(header::SPHERE_COUNT))
+            .ok_or(FormatError::CountOverflow)?;
+        let tri_bit = if n_tris > 0 { contents::TRIANGLES } else { 0 };
+        let sphere_bit = if n_spheres > 0 { contents::SPHERES } else { 0 };
+        if contents & !contents::ALL != 0
+            || contents & (contents::TRIANGLES | contents::SPHERES) != tri_bit | sphere_bit
+            || (contents & (contents::NORMALS | contents::UVS) != 0 && n_tris == 0)
+        {
+            return Err(FormatError::BadContents);
+        }
+        let specs = [
+            SectionSpec {
+                offset_word: header::NODES_OFFSET,
+                count: n_nodes,
+                stride: stride::NODE,
+                bit: 0,
+            },
+            SectionSpec {
+                offset_word: header::INDICES_OFFSET,
+                count: n_indices,
+                stride: 1,
+                bit: 0,
+            },
+            SectionSpec {
+                offset_word: header::TRIS_OFFSET,
+                count: n_tris,
+                stride: stride::TRIANGLE,
+                bit: contents::TRIANGLES,
+            },
+            SectionSpec {
+                offset_word: header::SPHERES_OFFSET,
+                count: n_spheres,
+                stride: stride::SPHERE,
+                bit: contents::SPHERES,
+            },
+            SectionSpec {
+                offset_word: header::NORMALS_OFFSET,
+                count: n_tris,
+                stride: stride::NORMALS,
+                bit: contents::NORMALS,
+            },
+            SectionSpec {
+                offset_word: header::UVS_OFFSET,
+                count: n_tris,
+                stride: stride::UVS,
+                bit: contents::UVS,
+            },
+            SectionSpec {
+                offset_word: header::MATERIALS_OFFSET,
+                count: n_prims as usize,
+                stride: 1,
+                bit: contents::MATERIALS,
+            },
+        ];
+        // (start, end) of each section, (0, 0) when absent.
+        let mut ranges = [(0usize, 0usize); 7];
+        for (range, spec) in ranges.iter_mut().zip(specs.iter()) {
+            let offset = h(spec.offset_word) as usize;
+            let present = if spec.bit == 0 {
+                spec.count > 0
+            } else {
+                contents & spec.bit != 0
+            };
+            if !present {
+                if offset != 0 {
+                    return Err(FormatError::BadContents);
+                }
+                continue;
+            }
+            let len = spec
+                .count
+                .checked_mul(spec.stride)
+                .ok_or(FormatError::CountOverflow)?;
+            let end = offset.checked_add(len).ok_or(FormatError::CountOverflow)?;
+            if offset < HEADER_WORDS || offset % SECTION_ALIGN != 0 || end > words.len() {
+                return Err(FormatError::SectionOutOfBounds);
+            }
+            *range = (offset, end);
+        }
+        // Pairwise overlap test on at most 7 sections: no sort, no allocation.
+        for (i, a) in ranges.iter().enumerate() {
+            for b in &ranges[i + 1..] {
+                if a.1 > a.0 && b.1 > b.0 && a.0 < b.1 && b.0 < a.1 {
+                    return Err(FormatError::SectionsOverlap);
+                }
+            }
+        }
+        let words_of = |i: usize| &words[ranges[i].0..ranges[i].1];
+        let floats_of = |i: usize| bytemuck::cast_slice::<u32, f32>(words_of(i));
+        let bounds_f: [f32; 6] =
+            core::array::from_fn(|k| f32::from_bits(words[header::BOUNDS + k]));
+        let bounds = [
+            Vec3::new(bounds_f[0], bounds_f[1], bounds_f[2]),
+            Vec3::new(bounds_f[3], bounds_f[4], bounds_f[5]),
+        ];
+        if !(bounds[0].is_finite() && bounds[1].is_finite() && bounds[0].cmple(bounds[1]).all()) {
+            return Err(FormatError::BadBounds);
+        }
+        let scene = Scene {
+            contents,
+            build_ms: f32::from_bits(h(header::BUILD_MS)),
+            depth: h(header::DEPTH),
+            bounds,
+            nodes: words_of(0),
+            indices: words_of(1),
+            tris: floats_of(2),
+            spheres: floats_of(3),
+            normals: floats_of(4),
+            uvs: floats_of(5),
+            materials: words_of(6),
+        };
+        let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
+        if !(finite(scene.tris)
+            && finite(scene.spheres)
+            && finite(scene.normals)
+            && finite(scene.uvs))
+            || scene
+                .spheres
+                .chunks_exact(stride::SPHERE)
+                .any(|s| !(s[3] > 0.0))
+        {
+            return Err(FormatError::NonFiniteGeometry);
+        }
+        if scene.nodes.is_empty() {
+            return Err(FormatError::BadDepth);
+        }
+        let depth = scene.validate_tree(n_prims)?;
+        if depth != scene.depth {
+            return Err(FormatError::BadDepth);
+        }
+        Ok(scene)
+    }
+
+    /// Walks the tree once depth-first, below child first, checking that the nodes are visited in
+    /// exactly the order `0, 1, 2, …` (the pre-order layout the builder writes). That makes every
+    /// child index greater than its parent's, every node reachable exactly once, and so bounds
+    /// every later walk. Returns the tree's depth.
+    fn validate_tree(&self, n_prims: u32) -> Result<u32, FormatError> {
+        let n_nodes = self.node_count();
+        // Pending above-children and their depths; capacity bounds the depth we accept.
+        let mut stack: heapless::Vec<(u32, u32), MAX_DEPTH> = heapless::Vec::new();
+        let mut next = 0u32; // the index the pre-order walk must visit next
+        let mut current = Some((0u32, 0u32));
+        let mut max_depth = 0;
+        while let Some((index, depth)) = current {
+            if index != next || index >= n_nodes {
+                return Err(FormatError::BadChild { node: index });
+            }
+            if depth as usize > MAX_DEPTH {
+                return Err(FormatError::BadDepth);
+            }
+            max_depth = max_depth.max(depth);
+            next += 1;
+            let node = self.node(index);
+            if node.is_leaf() {
+                self.validate_leaf(index, node, n_prims)?;
+                current = stack.pop();
+            } else {
+                if !node.split().is_finite() {
+                    return Err(FormatError::BadSplit { node: index });
+                }
+                let above = node.above_child();
+                if above <= index + 1 || above >= n_nodes {
+                    return Err(FormatError::BadChild { node: index });
+                }
+                stack
+                    .push((above, depth + 1))
+                    .map_err(|_| FormatError::BadDepth)?;
+                current = Some((index + 1, depth + 1));
+            }
+        }
+        if next != n_nodes {
+            return Err(FormatError::BadChild { node: next });
+        }
+        Ok(max_depth)
+    }
+
+    fn validate_leaf(&self, index: u32, node: Node, n_prims: u32) -> Result<(), FormatError> {
+        let bad = FormatError::BadPrimitive { node: index };
+        match node.prim_count() {
+            0 => Ok(()),
+            1 if node.payload() < n_prims => Ok(()),
+            1 => Err(bad),
+            n => {
+                let start = node.payload() as usize;
+                let end = start.checked_add(n as usize).ok_or(bad)?;
+                match self.indices.get(start..end) {
+                    Some(ids) if ids.iter().all(|&p| p < n_prims) => Ok(()),
+                    _ => Err(bad),
+                }
+            }
+        }
+    }
+
+    /// The CONTENTS bits.
+    #[inline]
+    pub fn contents(&self) -> u32 {
+        self.contents
+    }
+
+    /// The build time recorded by the writer, in milliseconds (information only).
+    #[inline]
+    pub fn build_ms(&self) -> f32 {
+        self.build_ms
+    }
+
+    /// The tree's depth (root alone = 0).
+    #[inline]
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
+    /// The scene box `[min, max]`.
+    #[inline]
+    pub fn bounds(&self) -> [Vec3; 2] {
+        self.bounds
+    }
+
+    #[inline]
+    pub fn node_count(&self) -> u32 {
+        (self.nodes.len() / stride::NODE) as u32
+    }
+
+    #[inline]
+    pub fn tri_count(&self) -> u32 {
+        (self.tris.len() / stride::TRIANGLE) as u32
+    }
+
+    #[inline]
+    pub fn sphere_count(&self) -> u32 {
+        (self.spheres.len() / stride::SPHERE) as u32
+    }
+
+    /// Triangles plus spheres.
+    #[inline]
+    pub fn prim_count(&self) -> u32 {
+        self.tri_count() + self.sphere_count()
+    }
+
+    /// Node `i`. Callers pass indices that validation guaranteed, so this never goes out of range
+    /// for a child or `0`.
+    #[inline(always)]
+    pub fn node(&self, i: u32) -> Node {
+        let i = i as usize * stride::NODE;
+        Node::from_words([self.nodes[i], self.nodes[i + 1]])
+    }
+
+    /// The primitive ids of a leaf.
+    #[inline(always)]
+    pub fn leaf_prims(&self, node: &Node) -> LeafPrims<'a> {
+        match node.prim_count() {
+            0 => LeafPrims::One(None),
+            1 => LeafPrims::One(Some(node.payload())),
+            n => {
+                let start = node.payload() as usize;
+                LeafPrims::Many(&self.indices[start..start + n as usize])
+            }
+        }
+    }
+
+    /// Triangle `i` (`i < tri_count`).
+    #[inline(always)]
+    pub fn triangle(&self, i: u32) -> Triangle {
+        let s = &self.tris[i as usize * stride::TRIANGLE..][..stride::TRIANGLE];
+        Triangle {
+            v0: Vec3::new(s[0], s[1], s[2]),
+            e1: Vec3::new(s[3], s[4], s[5]),
+            e2: Vec3::new(s[6], s[7], s[8]),
+        }
+    }
+
+    /// Sphere `i`, counted among spheres (`i < sphere_count`), not among all primitives.
+    #[inline(always)]
+    pub fn sphere(&self, i: u32) -> Sphere {
+        let s = &self.spheres[i as usize * stride::SPHERE..][..stride::SPHERE];
+        Sphere {
+            center: Vec3::new(s[0], s[1], s[2]),
+            radius: s[3],
+        }
+    }
+
+    /// Per-vertex normals of triangle `i`, when the scene has them.
+    #[inline]
+    pub fn vertex_normals(&self, i: u32) -> Option<[Vec3; 3]> {
+        let s = self
+            .normals
+            .get(i as usize * stride::NORMALS..)?
+            .get(..stride::NORMALS)?;
+        Some([
+            Vec3::new(s[0], s[1], s[2]),
+            Vec3::new(s[3], s[4], s[5]),
+            Vec3::new(s[6], s[7], s[8]),
+        ])
+    }
+
+    /// Texture coordinates of triangle `i`, when the scene has them.
+    #[inline]
+    pub fn vertex_uvs(&self, i: u32) -> Option<[glam::Vec2; 3]> {
+        let s = self
+            .uvs
+            .get(i as usize * stride::UVS..)?
+            .get(..stride::UVS)?;
+        Some([
+            glam::Vec2::new(s[0], s[1]),
+            glam::Vec2::new(s[2], s[3]),
+            glam::Vec2::new(s[4], s[5]),
+        ])
+    }
+
+    /// Material id of primitive `prim`, 0 when the scene has no materials section.
+    #[inline]
+    pub fn material(&self, prim: u32) -> u32 {
+        self.materials.get(prim as usize).copied().unwrap_or(0)
+    }
+}
+
+/// The primitives of one leaf: none or one stored inline, or a run of the index list.
+#[derive(Clone, Copy, Debug)]
+pub enum LeafPrims<'a> {
+    One(Option<u32>),
+    Many(&'a [u32]),
+}
+
+impl LeafPrims<'_> {
+    /// The ids as a slice-like iterator.
+    #[inline(always)]
+    pub fn as_slice(&self) -> &[u32] {
+        match self {
+            LeafPrims::One(Some(p)) => core::slice::from_ref(p),
+            LeafPrims::One(None) => &[],
+            LeafPrims::Many(s) => s,
+        }
+    }
+}
+
+const _: () = assert!(LEAF == 3);

@@ -1,0 +1,215 @@
+//! Scalar kd-tree traversal, closest hit and any hit, with a fixed stack: pbrt-v3's
+//! `KdTreeAccel::Intersect` (PBR 3rd ed., §4.4.3), with the cases it leaves to chance made exact.
+//!
+//! Deviations from pbrt-v3, each for a case it gets wrong or leaves undefined:
+//! - a direction component of `±0` never computes `0 · ∞`: a ray parallel to a split plane visits
+//!   only the side holding its origin, or both sides when the origin lies on the plane;
+//! - the root box is entered with an explicit per-axis test for zero components and a far distance
+//!   widened by `1 + 2γ₃` (pbrt-v3's robust `Bounds3::IntersectP`), so a ray grazing the box is
+//!   not lost to rounding;
+//! - non-finite rays are a miss before any arithmetic, so nothing can loop on NaN.
+//!
+//! Straddling primitives: a primitive in several leaves may be hit in an earlier leaf at a `t`
+//! beyond that leaf's range. The hit is kept as a candidate, and a pending node is skipped only
+//! when the closest candidate lies before its entry; so the reported hit is always the closest
+//! (the argument of pbrt-v3's `ray.tMax < tMin` test, which stops the whole walk instead).
+
+use crate::format::{MAX_DEPTH, Scene, contents};
+use crate::ray::{Hit, Ray};
+use glam::Vec3;
+
+/// `γ₃ = 3ε / (1 − 3ε)`, with ε half an f32 ULP (PBR 3rd ed., §3.9.1).
+const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
+
+/// A compile-time choice of which primitive kinds a kernel handles, so that a triangles-only
+/// scene runs no sphere code (and firmware naming one variant links only it).
+pub trait Contents {
+    const TRIANGLES: bool;
+    const SPHERES: bool;
+}
+
+/// Triangles only.
+pub struct Triangles;
+/// Spheres only.
+pub struct Spheres;
+/// Triangles and spheres.
+pub struct Mixed;
+
+impl Contents for Triangles {
+    const TRIANGLES: bool = true;
+    const SPHERES: bool = false;
+}
+impl Contents for Spheres {
+    const TRIANGLES: bool = false;
+    const SPHERES: bool = true;
+}
+impl Contents for Mixed {
+    const TRIANGLES: bool = true;
+    const SPHERES: bool = true;
+}
+
+/// The parametric interval `(t0, t1)` in which `ray` is inside the box, clipped to the ray's own
+/// range, or `None`.
+#[inline]
+pub fn clip_to_box(ray: &Ray, bounds: [Vec3; 2]) -> Option<(f32, f32)> {
+    let mut t0 = ray.tmin;
+    let mut t1 = ray.tmax;
+    for axis in 0..3 {
+        let (o, d) = (ray.origin[axis], ray.dir[axis]);
+        let (lo, hi) = (bounds[0][axis], bounds[1][axis]);
+        if d == 0.0 {
+            if o < lo || o > hi {
+                return None;
+            }
+            continue;
+        }
+        let inv = 1.0 / d;
+        let (mut near, mut far) = ((lo - o) * inv, (hi - o) * inv);
+        if near > far {
+            core::mem::swap(&mut near, &mut far);
+        }
+        far *= 1.0 + 2.0 * GAMMA3;
+        t0 = t0.max(near);
+        t1 = t1.min(far);
+        if t0 > t1 {
+            return None;
+        }
+    }
+    Some((t0, t1))
+}
+
+/// One pending far child: node index and its `(tmin, tmax)`.
+type StackItem = (u32, f32, f32);
+
+impl Scene<'_> {
+    /// The closest hit along `ray` in `(ray.tmin, ray.tmax)`, or [`Hit::MISS`]. Picks the kernel
+    /// monomorphized for the scene's contents.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Hit {
+        match self.contents() & (contents::TRIANGLES | contents::SPHERES) {
+            contents::TRIANGLES => self.intersect_with::<Triangles>(ray),
+            contents::SPHERES => self.intersect_with::<Spheres>(ray),
+            _ => self.intersect_with::<Mixed>(ray),
+        }
+    }
+
+    /// Whether anything lies along `ray` in `(ray.tmin, ray.tmax)` (shadow rays).
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        match self.contents() & (contents::TRIANGLES | contents::SPHERES) {
+            contents::TRIANGLES => self.occluded_with::<Triangles>(ray),
+            contents::SPHERES => self.occluded_with::<Spheres>(ray),
+            _ => self.occluded_with::<Mixed>(ray),
+        }
+    }
+
+    /// Tests one primitive against `ray`, returning `(t, u, v)`.
+    #[inline(always)]
+    pub fn intersect_prim<C: Contents>(&self, prim: u32, ray: &Ray) -> Option<(f32, f32, f32)> {
+        let n_tris = self.tri_count();
+        if C::SPHERES && (!C::TRIANGLES || prim >= n_tris) {
+            return self
+                .sphere(prim - n_tris)
+                .intersect(ray)
+                .map(|t| (t, 0.0, 0.0));
+        }
+        self.triangle(prim).intersect(ray)
+    }
+
+    /// [`Scene::intersect`] for a fixed [`Contents`]; the caller promises the scene holds no other
+    /// kind of primitive (it would be tested as the wrong kind, never out of bounds).
+    pub fn intersect_with<C: Contents>(&self, ray: &Ray) -> Hit {
+        let mut best = Hit::MISS;
+        let mut query = *ray;
+        self.walk(ray, |scene, prims, _| {
+            for &prim in prims {
+                if let Some((t, u, v)) = scene.intersect_prim::<C>(prim, &query) {
+                    query.tmax = t;
+                    best = Hit { t, prim, u, v };
+                }
+            }
+            (query.tmax, false)
+        });
+        best
+    }
+
+    /// [`Scene::occluded`] for a fixed [`Contents`].
+    pub fn occluded_with<C: Contents>(&self, ray: &Ray) -> bool {
+        let mut found = false;
+        self.walk(ray, |scene, prims, _| {
+            found = prims
+                .iter()
+                .any(|&prim| scene.intersect_prim::<C>(prim, ray).is_some());
+            (ray.tmax, found)
+        });
+        found
+    }
+
+    /// The front-to-back walk shared by both queries. `visit(scene, leaf_prims, (tmin, tmax))`
+    /// returns the closest candidate's `t` so far and whether to stop at once.
+    #[inline(always)]
+    fn walk<F>(&self, ray: &Ray, mut visit: F)
+    where
+        F: FnMut(&Self, &[u32], (f32, f32)) -> (f32, bool),
+    {
+        if !ray.is_finite() {
+            return;
+        }
+        let Some((mut tmin, mut tmax)) = clip_to_box(ray, self.bounds()) else {
+            return;
+        };
+        let inv_dir = ray.dir.recip();
+        let mut best_t = ray.tmax;
+        let mut stack: heapless::Vec<StackItem, MAX_DEPTH> = heapless::Vec::new();
+        let mut index = 0u32;
+        loop {
+            let node = self.node(index);
+            if best_t < tmin || node.is_leaf() {
+                // A node entered beyond the closest hit so far is skipped, not a reason to stop:
+                // a ray lying in a split plane pushes both children with the same interval, so
+                // the stack is not always ordered by entry distance.
+                if best_t >= tmin {
+                    let prims = self.leaf_prims(&node);
+                    let (t, stop) = visit(self, prims.as_slice(), (tmin, tmax));
+                    best_t = t;
+                    if stop {
+                        return;
+                    }
+                }
+                match stack.pop() {
+                    Some((next, a, b)) => (index, tmin, tmax) = (next, a, b),
+                    None => return,
+                }
+                continue;
+            }
+            let axis = node.axis();
+            let split = node.split();
+            let (o, d) = (ray.origin[axis], ray.dir[axis]);
+            let below_first = o < split || (o == split && d <= 0.0);
+            let (first, second) = if below_first {
+                (index + 1, node.above_child())
+            } else {
+                (node.above_child(), index + 1)
+            };
+            // Validation bounds the tree's depth by MAX_DEPTH, and at most one item per level is
+            // pending, so these pushes cannot fail.
+            if d == 0.0 {
+                if o == split {
+                    let _ = stack.push((second, tmin, tmax));
+                }
+                index = first;
+                continue;
+            }
+            let t_plane = (split - o) * inv_dir[axis];
+            if t_plane > tmax || t_plane <= 0.0 {
+                index = first;
+            } else if t_plane < tmin {
+                index = second;
+            } else {
+                let _ = stack.push((second, t_plane, tmax));
+                index = first;
+                tmax = t_plane;
+            }
+        }
+    }
+}

@@ -1,0 +1,188 @@
+//! Perfect splits: the bounds of a primitive's part inside a box (Havran 2000, §4.4; Wald &
+//! Havran 2006, §4.3 "split clipping").
+//!
+//! Triangles are clipped in f64 by Sutherland–Hodgman against the box's six planes and the
+//! polygon's bounds rounded outward to f32, so a triangle is never lost to rounding: the f32 box
+//! always contains the exact clipped part. Spheres use their bounding box cut by the box
+//! (conservative, not tight).
+
+use glam::{DVec3, Vec3};
+
+/// An axis-aligned box in f32.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    /// The box around some points.
+    pub fn around(points: &[Vec3]) -> Self {
+        points.iter().fold(Self::EMPTY, |b, &p| Aabb {
+            min: b.min.min(p),
+            max: b.max.max(p),
+        })
+    }
+
+    pub fn union(&self, other: &Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    pub fn intersection(&self, other: &Aabb) -> Aabb {
+        Aabb {
+            min: self.min.max(other.min),
+            max: self.max.min(other.max),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+
+    /// Surface area, in f64 to keep the SAH's ratios exact enough on flat boxes.
+    pub fn area(&self) -> f64 {
+        let d = (self.max - self.min).as_dvec3().max(DVec3::ZERO);
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+
+    /// The box with `max[axis]` (below) or `min[axis]` (above) moved to `split`.
+    pub fn split(&self, axis: usize, split: f32) -> (Aabb, Aabb) {
+        let (mut below, mut above) = (*self, *self);
+        below.max[axis] = split;
+        above.min[axis] = split;
+        (below, above)
+    }
+}
+
+/// Largest f32 ≤ `x`.
+fn round_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f as f64 > x { f.next_down() } else { f }
+}
+
+/// Smallest f32 ≥ `x`.
+fn round_up(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x { f.next_up() } else { f }
+}
+
+/// The f32 bounds of the part of triangle `tri` inside `bounds`, or `None` when the exact f64
+/// clip leaves nothing.
+pub fn clip_triangle(tri: &[Vec3; 3], bounds: &Aabb) -> Option<Aabb> {
+    // Sutherland–Hodgman: a triangle clipped by 6 half-spaces has at most 9 vertices.
+    let mut poly = [DVec3::ZERO; 9];
+    let mut next = [DVec3::ZERO; 9];
+    for (dst, src) in poly.iter_mut().zip(tri) {
+        *dst = src.as_dvec3();
+    }
+    let mut n = 3;
+    for axis in 0..3 {
+        for (limit, keep_below) in [
+            (bounds.min[axis] as f64, false),
+            (bounds.max[axis] as f64, true),
+        ] {
+            let inside = |p: &DVec3| {
+                if keep_below {
+                    p[axis] <= limit
+                } else {
+                    p[axis] >= limit
+                }
+            };
+            let mut m = 0;
+            for i in 0..n {
+                let (a, b) = (poly[i], poly[(i + 1) % n]);
+                let (ia, ib) = (inside(&a), inside(&b));
+                if ia {
+                    next[m] = a;
+                    m += 1;
+                }
+                if ia != ib {
+                    let s = (limit - a[axis]) / (b[axis] - a[axis]);
+                    let mut p = a + (b - a) * s;
+                    p[axis] = limit; // exactly on the plane, whatever the rounding of s
+                    next[m] = p;
+                    m += 1;
+                }
+            }
+            n = m;
+            if n == 0 {
+                return None;
+            }
+            poly[..n].copy_from_slice(&next[..n]);
+        }
+    }
+    let (lo, hi) = poly[..n]
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let out = Aabb {
+        min: Vec3::new(round_down(lo.x), round_down(lo.y), round_down(lo.z)),
+        max: Vec3::new(round_up(hi.x), round_up(hi.y), round_up(hi.z)),
+    };
+    Some(out.intersection(bounds))
+}
+
+/// The box of a sphere, cut by `bounds`, or `None` when they do not meet.
+pub fn clip_sphere(center: Vec3, radius: f32, bounds: &Aabb) -> Option<Aabb> {
+    let c = center.as_dvec3();
+    let r = radius as f64;
+    let lo = c - DVec3::splat(r);
+    let hi = c + DVec3::splat(r);
+    let b = Aabb {
+        min: Vec3::new(round_down(lo.x), round_down(lo.y), round_down(lo.z)),
+        max: Vec3::new(round_up(hi.x), round_up(hi.y), round_up(hi.z)),
+    }
+    .intersection(bounds);
+    if b.is_empty() { None } else { Some(b) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clipped_triangle_stays_inside_box_and_covers_the_part() {
+        let tri = [
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(3.0, -1.0, 0.0),
+            Vec3::new(-1.0, 3.0, 0.0),
+        ];
+        let b = Aabb {
+            min: Vec3::new(0.0, 0.0, -1.0),
+            max: Vec3::new(1.0, 1.0, 1.0),
+        };
+        let c = clip_triangle(&tri, &b).unwrap();
+        assert_eq!(c.min, Vec3::new(0.0, 0.0, 0.0));
+        assert_eq!(c.max, Vec3::new(1.0, 1.0, 0.0));
+        // A corner of the box cut off by the hypotenuse x + y = 2.
+        let b2 = Aabb {
+            min: Vec3::new(0.5, 0.5, -1.0),
+            max: Vec3::new(2.0, 2.0, 1.0),
+        };
+        let c2 = clip_triangle(&tri, &b2).unwrap();
+        assert_eq!(c2.max.x, 1.5);
+        assert_eq!(c2.max.y, 1.5);
+        let far = Aabb {
+            min: Vec3::new(5.0, 5.0, -1.0),
+            max: Vec3::new(6.0, 6.0, 1.0),
+        };
+        assert!(clip_triangle(&tri, &far).is_none());
+    }
+
+    #[test]
+    fn outward_rounding_never_shrinks() {
+        let x = 0.1f64;
+        assert!((round_down(x) as f64) <= x && (round_up(x) as f64) >= x);
+        assert_eq!(round_down(1.0), 1.0);
+        assert_eq!(round_up(1.0), 1.0);
+    }
+}

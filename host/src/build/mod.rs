@@ -1,0 +1,376 @@
+//! The SAH kd-tree builder: event-based O(N log N) construction after Wald & Havran 2006, with
+//! perfect splits (primitives clipped to the node box, [`clip`]), the empty-space bonus and
+//! pbrt-v3's termination rules (PBR 3rd ed., §4.4.2).
+//!
+//! Per node: find the cheapest plane with one sweep per axis over sorted event lists
+//! ([`events::best_split_on_axis`]); classify primitives as below-only, above-only or straddling
+//! by one pass over the winning axis' events; split each axis' list by that classification (order
+//! is kept, no re-sort); clip the straddling primitives to each child box and merge their new,
+//! freshly sorted events in. Children are built in parallel with rayon when large enough.
+
+pub mod clip;
+pub mod events;
+
+use crate::geometry::Geometry;
+use clip::Aabb;
+use events::{Costs, Event, Split};
+use glam::Vec3;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Builder parameters. The defaults are pbrt-v3's, except where measurement chose otherwise
+/// (see `docs/BUILD.md`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildParams {
+    /// Cost of one traversal step, relative to `intersect_cost`.
+    pub traversal_cost: f64,
+    /// Cost of one primitive test.
+    pub intersect_cost: f64,
+    /// Fraction of the cost saved when a split cuts off empty space.
+    pub empty_bonus: f64,
+    /// A node with at most this many primitives becomes a leaf.
+    pub max_prims: usize,
+    /// Depth limit; `None` is `8 + 1.3·log2(N)` rounded (pbrt-v3), capped by the core's stack.
+    pub max_depth: Option<u32>,
+    /// Build subtrees on the rayon pool.
+    pub parallel: bool,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        Self {
+            traversal_cost: 1.0,
+            intersect_cost: 80.0,
+            empty_bonus: 0.5,
+            max_prims: 1,
+            max_depth: None,
+            parallel: true,
+        }
+    }
+}
+
+impl BuildParams {
+    /// The depth limit for `n` primitives.
+    pub fn depth_limit(&self, n: usize) -> u32 {
+        let auto = (8.0 + 1.3 * (n.max(1) as f64).log2()).round() as u32;
+        self.max_depth
+            .unwrap_or(auto)
+            .min(kdray_core::format::MAX_DEPTH as u32)
+    }
+
+    fn costs(&self) -> Costs {
+        Costs {
+            traversal: self.traversal_cost,
+            intersect: self.intersect_cost,
+            empty_bonus: self.empty_bonus,
+        }
+    }
+}
+
+/// A built tree before flattening.
+#[derive(Debug)]
+pub enum BuildNode {
+    /// Global primitive ids.
+    Leaf(Vec<u32>),
+    Interior {
+        axis: u8,
+        split: f32,
+        children: Box<[BuildNode; 2]>,
+    },
+}
+
+/// The result of a build.
+#[derive(Debug)]
+pub struct Tree {
+    pub root: BuildNode,
+    /// Box of all primitives (the root node's box).
+    pub bounds: Aabb,
+}
+
+/// Primitive access for the builder: global id → clipped bounds.
+struct Prims<'a> {
+    tris: &'a [[Vec3; 3]],
+    spheres: &'a [(Vec3, f32)],
+}
+
+impl Prims<'_> {
+    fn clip(&self, id: u32, bounds: &Aabb) -> Option<Aabb> {
+        let n_tris = self.tris.len();
+        match self.tris.get(id as usize) {
+            Some(tri) => clip::clip_triangle(tri, bounds),
+            None => {
+                let (c, r) = self.spheres[id as usize - n_tris];
+                clip::clip_sphere(c, r, bounds)
+            }
+        }
+    }
+
+    fn bounds(&self, id: u32) -> Aabb {
+        match self.tris.get(id as usize) {
+            Some(tri) => Aabb::around(tri),
+            None => {
+                let (c, r) = self.spheres[id as usize - self.tris.len()];
+                clip::clip_sphere(
+                    c,
+                    r,
+                    &Aabb {
+                        min: Vec3::MIN,
+                        max: Vec3::MAX,
+                    },
+                )
+                .unwrap_or(Aabb::EMPTY)
+            }
+        }
+    }
+}
+
+/// Everything a recursive build step shares.
+struct Ctx<'a> {
+    prims: Prims<'a>,
+    params: BuildParams,
+    costs: Costs,
+    max_depth: u32,
+    /// Progress in parts per 2³², summed over finished leaves.
+    progress: Option<&'a AtomicU64>,
+}
+
+/// Units of [`build`]'s progress counter that make up the whole build.
+pub const PROGRESS_TOTAL: u64 = 1 << 32;
+
+/// Builds the tree over `geom`'s triangles and spheres. Degenerate (zero-area) triangles are left
+/// out of the tree: no ray can hit them. `progress`, when given, grows to [`PROGRESS_TOTAL`].
+///
+/// # Errors
+/// Non-finite coordinates or radii, which loaders reject before this point.
+pub fn build(
+    geom: &Geometry,
+    params: &BuildParams,
+    progress: Option<&AtomicU64>,
+) -> Result<Tree, String> {
+    if let Some(i) = geom
+        .triangles
+        .iter()
+        .position(|t| !t.iter().all(|v| v.is_finite()))
+    {
+        return Err(format!("triangle {i} has a non-finite coordinate"));
+    }
+    if let Some(i) = geom
+        .spheres
+        .iter()
+        .position(|(c, r)| !(c.is_finite() && r.is_finite() && *r > 0.0))
+    {
+        return Err(format!(
+            "sphere {i} has a non-finite centre or a radius that is not > 0"
+        ));
+    }
+    let prims = Prims {
+        tris: &geom.triangles,
+        spheres: &geom.spheres,
+    };
+    let live: Vec<u32> = (0..geom.prim_count() as u32)
+        .filter(|&id| match geom.triangles.get(id as usize) {
+            Some(t) => (t[1] - t[0]).cross(t[2] - t[0]) != Vec3::ZERO,
+            None => true,
+        })
+        .collect();
+    let boxes: Vec<Aabb> = live.iter().map(|&id| prims.bounds(id)).collect();
+    let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+    let ctx = Ctx {
+        prims,
+        params: *params,
+        costs: params.costs(),
+        max_depth: params.depth_limit(live.len()),
+        progress,
+    };
+    if live.is_empty() {
+        if let Some(p) = progress {
+            p.fetch_add(PROGRESS_TOTAL, Ordering::Relaxed);
+        }
+        return Ok(Tree {
+            root: BuildNode::Leaf(Vec::new()),
+            bounds: Aabb {
+                min: Vec3::ZERO,
+                max: Vec3::ZERO,
+            },
+        });
+    }
+    let events: [Vec<Event>; 3] = core::array::from_fn(|axis| {
+        let mut list = Vec::with_capacity(2 * boxes.len());
+        for (local, b) in boxes.iter().enumerate() {
+            events::push_events(&mut list, b, axis, local as u32);
+        }
+        events::sort_events(&mut list);
+        list
+    });
+    drop(boxes);
+    let root = build_node(&ctx, live, events, bounds, 0, 0, PROGRESS_TOTAL);
+    Ok(Tree { root, bounds })
+}
+
+/// Side of each primitive after classification.
+const BOTH: u8 = 0;
+const BELOW: u8 = 1;
+const ABOVE: u8 = 2;
+
+/// Below this many primitives children are built on the current thread.
+const PARALLEL_MIN: usize = 2048;
+
+fn make_leaf(ctx: &Ctx, prims: Vec<u32>, weight: u64) -> BuildNode {
+    if let Some(p) = ctx.progress {
+        p.fetch_add(weight, Ordering::Relaxed);
+    }
+    BuildNode::Leaf(prims)
+}
+
+/// Builds the subtree over `prims` (global ids; position = local id) whose events are `events`.
+fn build_node(
+    ctx: &Ctx,
+    prims: Vec<u32>,
+    events: [Vec<Event>; 3],
+    bounds: Aabb,
+    depth: u32,
+    bad_refines: u32,
+    weight: u64,
+) -> BuildNode {
+    let n = prims.len();
+    if n <= ctx.params.max_prims || depth >= ctx.max_depth {
+        return make_leaf(ctx, prims, weight);
+    }
+    let best = (0..3)
+        .filter_map(|axis| events::best_split_on_axis(&events[axis], n, &bounds, axis, &ctx.costs))
+        .min_by(|a, b| a.cost.total_cmp(&b.cost));
+    let leaf_cost = ctx.costs.intersect * n as f64;
+    let Some(split) = best else {
+        return make_leaf(ctx, prims, weight);
+    };
+    let bad_refines = bad_refines + u32::from(split.cost > leaf_cost);
+    if (split.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= 3 {
+        return make_leaf(ctx, prims, weight);
+    }
+    let (below_box, above_box) = bounds.split(split.axis, split.pos);
+    let (below, above) = partition(ctx, &prims, events, &split, &below_box, &above_box);
+    drop(prims);
+    let (nb, na) = (below.0.len() as u64, above.0.len() as u64);
+    let wb = if nb + na == 0 {
+        weight / 2
+    } else {
+        (weight as u128 * nb as u128 / (nb + na) as u128) as u64
+    };
+    let wa = weight - wb;
+    let build_below = || build_node(ctx, below.0, below.1, below_box, depth + 1, bad_refines, wb);
+    let build_above = || build_node(ctx, above.0, above.1, above_box, depth + 1, bad_refines, wa);
+    let children = if ctx.params.parallel && n >= PARALLEL_MIN {
+        rayon::join(build_below, build_above)
+    } else {
+        (build_below(), build_above())
+    };
+    BuildNode::Interior {
+        axis: split.axis as u8,
+        split: split.pos,
+        children: Box::new([children.0, children.1]),
+    }
+}
+
+type Side = (Vec<u32>, [Vec<Event>; 3]);
+
+/// Classifies primitives against `split` and splits the event lists (Wald & Havran 2006, §5.2).
+fn partition(
+    ctx: &Ctx,
+    prims: &[u32],
+    events: [Vec<Event>; 3],
+    split: &Split,
+    below_box: &Aabb,
+    above_box: &Aabb,
+) -> (Side, Side) {
+    let n = prims.len();
+    let mut side = vec![BOTH; n];
+    for e in &events[split.axis] {
+        let s = &mut side[e.prim as usize];
+        match e.kind {
+            events::END if e.pos <= split.pos => *s = BELOW,
+            events::START if e.pos >= split.pos => *s = ABOVE,
+            events::PLANAR => {
+                *s = if e.pos < split.pos || (e.pos == split.pos && split.planar_below) {
+                    BELOW
+                } else {
+                    ABOVE
+                }
+            }
+            _ => {}
+        }
+    }
+    // Straddling primitives, clipped to each child (perfect splits). A part that the exact clip
+    // finds empty on one side leaves the primitive on the other side only.
+    let mut clipped: Vec<(u32, Option<Aabb>, Option<Aabb>)> = Vec::new();
+    for (local, &s) in side.iter().enumerate() {
+        if s == BOTH {
+            let id = prims[local];
+            let (b, a) = (ctx.prims.clip(id, below_box), ctx.prims.clip(id, above_box));
+            // Rounding can in principle empty both: keep the primitive, conservatively, below.
+            let b = if b.is_none() && a.is_none() {
+                Some(*below_box)
+            } else {
+                b
+            };
+            clipped.push((local as u32, b, a));
+        }
+    }
+    // New local ids: below/above-only primitives in order, then straddlers.
+    const NONE: u32 = u32::MAX;
+    let mut map_b = vec![NONE; n];
+    let mut map_a = vec![NONE; n];
+    let (mut prims_b, mut prims_a) = (Vec::new(), Vec::new());
+    for (local, &s) in side.iter().enumerate() {
+        if s == BELOW {
+            map_b[local] = prims_b.len() as u32;
+            prims_b.push(prims[local]);
+        } else if s == ABOVE {
+            map_a[local] = prims_a.len() as u32;
+            prims_a.push(prims[local]);
+        }
+    }
+    for &(local, b, a) in &clipped {
+        if b.is_some() {
+            map_b[local as usize] = prims_b.len() as u32;
+            prims_b.push(prims[local as usize]);
+        }
+        if a.is_some() {
+            map_a[local as usize] = prims_a.len() as u32;
+            prims_a.push(prims[local as usize]);
+        }
+    }
+    let mut ev_b: [Vec<Event>; 3] = Default::default();
+    let mut ev_a: [Vec<Event>; 3] = Default::default();
+    for (axis, list) in events.into_iter().enumerate() {
+        let (mut lb, mut la) = (
+            Vec::with_capacity(list.len() / 2),
+            Vec::with_capacity(list.len() / 2),
+        );
+        for e in list {
+            match side[e.prim as usize] {
+                BELOW => lb.push(Event {
+                    prim: map_b[e.prim as usize],
+                    ..e
+                }),
+                ABOVE => la.push(Event {
+                    prim: map_a[e.prim as usize],
+                    ..e
+                }),
+                _ => {}
+            }
+        }
+        let (mut nb, mut na) = (Vec::new(), Vec::new());
+        for &(local, b, a) in &clipped {
+            if let Some(b) = b {
+                events::push_events(&mut nb, &b, axis, map_b[local as usize]);
+            }
+            if let Some(a) = a {
+                events::push_events(&mut na, &a, axis, map_a[local as usize]);
+            }
+        }
+        events::sort_events(&mut nb);
+        events::sort_events(&mut na);
+        ev_b[axis] = events::merge(lb, nb);
+        ev_a[axis] = events::merge(la, na);
+    }
+    ((prims_b, ev_b), (prims_a, ev_a))
+}

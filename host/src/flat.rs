@@ -1,0 +1,266 @@
+//! Writing the flat format (`kdray_core::format`) from a built tree, `.kdt` files, and the tree
+//! statistics `kdray info` prints.
+
+use crate::build::clip::Aabb;
+use crate::build::{BuildNode, BuildParams, Tree};
+use crate::error::{Error, Result};
+use crate::geometry::Geometry;
+use kdray_core::Scene;
+use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header};
+use kdray_core::node::Node;
+use std::path::Path;
+
+/// Flattens `tree` in depth-first order (below child first: the order `Scene::from_words`
+/// requires) and appends the geometry sections the scene needs.
+///
+/// # Errors
+/// A tree too large for the node fields (2³⁰ nodes or primitives in one leaf).
+pub fn serialize(
+    tree: &Tree,
+    geom: &Geometry,
+    build_ms: f32,
+) -> core::result::Result<Vec<u32>, String> {
+    let mut nodes: Vec<Node> = Vec::new();
+    let mut indices: Vec<u32> = Vec::new();
+    let depth = flatten(&tree.root, &mut nodes, &mut indices)?;
+    let n_tris = geom.triangles.len();
+    let mut c = 0;
+    if n_tris > 0 {
+        c |= contents::TRIANGLES;
+    }
+    if !geom.spheres.is_empty() {
+        c |= contents::SPHERES;
+    }
+    if geom.normals.is_some() && n_tris > 0 {
+        c |= contents::NORMALS;
+    }
+    if geom.uvs.is_some() && n_tris > 0 {
+        c |= contents::UVS;
+    }
+    let materials: Vec<u32> = (0..geom.prim_count())
+        .map(|i| {
+            if i < n_tris {
+                geom.tri_materials.get(i).copied().unwrap_or(0)
+            } else {
+                geom.sphere_materials.get(i - n_tris).copied().unwrap_or(0)
+            }
+        })
+        .collect();
+    if materials.iter().any(|&m| m != 0) {
+        c |= contents::MATERIALS;
+    }
+
+    let mut words = vec![0u32; HEADER_WORDS];
+    let section = |words: &mut Vec<u32>, slot: usize, data: &mut dyn Iterator<Item = u32>| {
+        words.resize(words.len().next_multiple_of(SECTION_ALIGN), 0);
+        words[slot] = words.len() as u32;
+        words.extend(data);
+    };
+    section(
+        &mut words,
+        header::NODES_OFFSET,
+        &mut nodes.iter().flat_map(|n| n.words()),
+    );
+    if !indices.is_empty() {
+        section(
+            &mut words,
+            header::INDICES_OFFSET,
+            &mut indices.iter().copied(),
+        );
+    }
+    if c & contents::TRIANGLES != 0 {
+        let mut it = geom.triangles.iter().flat_map(|t| {
+            let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+            [t[0], e1, e2]
+                .into_iter()
+                .flat_map(|v| v.to_array())
+                .map(f32::to_bits)
+        });
+        section(&mut words, header::TRIS_OFFSET, &mut it);
+    }
+    if c & contents::SPHERES != 0 {
+        let mut it = geom
+            .spheres
+            .iter()
+            .flat_map(|(ctr, r)| [ctr.x, ctr.y, ctr.z, *r])
+            .map(f32::to_bits);
+        section(&mut words, header::SPHERES_OFFSET, &mut it);
+    }
+    if let Some(normals) = geom.normals.as_ref().filter(|_| c & contents::NORMALS != 0) {
+        let mut it = normals
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_array())
+            .map(f32::to_bits);
+        section(&mut words, header::NORMALS_OFFSET, &mut it);
+    }
+    if let Some(uvs) = geom.uvs.as_ref().filter(|_| c & contents::UVS != 0) {
+        let mut it = uvs
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_array())
+            .map(f32::to_bits);
+        section(&mut words, header::UVS_OFFSET, &mut it);
+    }
+    if c & contents::MATERIALS != 0 {
+        section(
+            &mut words,
+            header::MATERIALS_OFFSET,
+            &mut materials.iter().copied(),
+        );
+    }
+    let total =
+        u32::try_from(words.len()).map_err(|_| "scene larger than 2^32 words".to_string())?;
+    words[header::MAGIC] = format::MAGIC;
+    words[header::VERSION] = format::VERSION;
+    words[header::CONTENTS] = c;
+    words[header::TOTAL_WORDS] = total;
+    words[header::NODE_COUNT] = nodes.len() as u32;
+    words[header::TRI_COUNT] = n_tris as u32;
+    words[header::SPHERE_COUNT] = geom.spheres.len() as u32;
+    words[header::INDEX_COUNT] = indices.len() as u32;
+    words[header::DEPTH] = depth;
+    let b = tree.bounds;
+    for (k, v) in [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z]
+        .into_iter()
+        .enumerate()
+    {
+        words[header::BOUNDS + k] = v.to_bits();
+    }
+    words[header::BUILD_MS] = build_ms.to_bits();
+    Ok(words)
+}
+
+/// Appends `node`'s subtree in pre-order; returns its depth.
+fn flatten(
+    node: &BuildNode,
+    nodes: &mut Vec<Node>,
+    indices: &mut Vec<u32>,
+) -> core::result::Result<u32, String> {
+    let too_big = || "tree too large for the 30-bit node fields".to_string();
+    match node {
+        BuildNode::Leaf(prims) => {
+            let count = u32::try_from(prims.len())
+                .ok()
+                .filter(|&n| n <= Node::MAX_FIELD)
+                .ok_or_else(too_big)?;
+            let payload = match prims.len() {
+                0 => 0,
+                1 => prims[0],
+                _ => {
+                    let at = indices.len() as u32;
+                    indices.extend_from_slice(prims);
+                    at
+                }
+            };
+            nodes.push(Node::leaf(count, payload));
+            Ok(0)
+        }
+        BuildNode::Interior {
+            axis,
+            split,
+            children,
+        } => {
+            let at = nodes.len();
+            nodes.push(Node::leaf(0, 0)); // patched below once the above child's index is known
+            let d_below = flatten(&children[0], nodes, indices)?;
+            let above = u32::try_from(nodes.len())
+                .ok()
+                .filter(|&n| n <= Node::MAX_FIELD)
+                .ok_or_else(too_big)?;
+            nodes[at] = Node::interior(*axis as u32, *split, above);
+            let d_above = flatten(&children[1], nodes, indices)?;
+            Ok(1 + d_below.max(d_above))
+        }
+    }
+}
+
+/// Writes words as a little-endian `.kdt` file.
+pub fn write_kdt(path: &Path, words: &[u32]) -> Result<()> {
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+    std::fs::write(path, bytes).map_err(|e| Error::io(path, e))
+}
+
+/// Reads a `.kdt` file into words and validates it.
+pub fn read_kdt(path: &Path) -> Result<Vec<u32>> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    if bytes.len() % 4 != 0 {
+        return Err(Error::new(
+            path,
+            format!(
+                "{} bytes is not a whole number of 32-bit words",
+                bytes.len()
+            ),
+        ));
+    }
+    let words: Vec<u32> = bytes
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    Scene::from_words(&words)
+        .map_err(|e| Error::new(path, format!("invalid kd-tree file: {e}")))?;
+    Ok(words)
+}
+
+/// What `kdray info` reports about a tree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TreeStats {
+    pub nodes: u32,
+    pub leaves: u32,
+    pub empty_leaves: u32,
+    /// Primitive references in non-empty leaves divided by their number.
+    pub mean_prims_per_leaf: f64,
+    pub depth: u32,
+    /// Expected cost of a random ray through the root box, in the given cost units.
+    pub sah_cost: f64,
+    pub bytes: usize,
+    pub bytes_per_prim: f64,
+}
+
+/// Walks a validated scene to gather [`TreeStats`], pricing nodes with `params`' costs.
+pub fn stats(scene: &Scene, words: usize, params: &BuildParams) -> TreeStats {
+    let [lo, hi] = scene.bounds();
+    let root = Aabb { min: lo, max: hi };
+    let root_area = root.area();
+    let mut s = TreeStats {
+        nodes: scene.node_count(),
+        leaves: 0,
+        empty_leaves: 0,
+        mean_prims_per_leaf: 0.0,
+        depth: scene.depth(),
+        sah_cost: 0.0,
+        bytes: words * 4,
+        bytes_per_prim: (words * 4) as f64 / scene.prim_count().max(1) as f64,
+    };
+    let mut refs = 0u64;
+    let mut stack = vec![(0u32, root)];
+    while let Some((i, b)) = stack.pop() {
+        let node = scene.node(i);
+        let p = if root_area > 0.0 {
+            b.area() / root_area
+        } else {
+            1.0
+        };
+        if node.is_leaf() {
+            s.leaves += 1;
+            let n = node.prim_count();
+            if n == 0 {
+                s.empty_leaves += 1;
+            }
+            refs += n as u64;
+            s.sah_cost += params.intersect_cost * n as f64 * p;
+        } else {
+            s.sah_cost += params.traversal_cost * p;
+            let (below, above) = b.split(node.axis(), node.split());
+            stack.push((i + 1, below));
+            stack.push((node.above_child(), above));
+        }
+    }
+    let non_empty = s.leaves - s.empty_leaves;
+    s.mean_prims_per_leaf = if non_empty > 0 {
+        refs as f64 / non_empty as f64
+    } else {
+        0.0
+    };
+    s
+}

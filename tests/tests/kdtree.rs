@@ -1,0 +1,125 @@
+//! Closest-hit and any-hit traversal of built kd-trees against brute force over all primitives,
+//! on random scenes built to hit the hard cases: vertices and ray origins snapped to a coarse grid
+//! (so split planes, axis-aligned and coplanar triangles, shared edges and origins on planes are
+//! common), degenerate triangles, spheres, and axis-parallel directions with ±0 components.
+
+use glam::Vec3;
+use kdray::Geometry;
+use kdray::build::{BuildParams, build};
+use kdray::flat::serialize;
+use kdray_core::traverse::Mixed;
+use kdray_core::{Hit, Ray, Scene};
+use proptest::prelude::*;
+
+fn grid() -> impl Strategy<Value = f32> {
+    (-8i32..=8).prop_map(|k| k as f32 * 0.25)
+}
+
+fn point() -> impl Strategy<Value = Vec3> {
+    (grid(), grid(), grid()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+fn triangle() -> impl Strategy<Value = [Vec3; 3]> {
+    prop_oneof![
+        4 => [point(), point(), point()],
+        // Axis-aligned: all three share one coordinate.
+        2 => (point(), point(), point(), 0usize..3).prop_map(|(a, mut b, mut c, k)| {
+            b[k] = a[k];
+            c[k] = a[k];
+            [a, b, c]
+        }),
+        // Degenerate: a repeated vertex or three collinear points.
+        1 => (point(), point()).prop_map(|(a, b)| [a, b, a]),
+        1 => (point(), point()).prop_map(|(a, b)| [a, b, a + 2.0 * (b - a)]),
+    ]
+}
+
+fn sphere() -> impl Strategy<Value = (Vec3, f32)> {
+    (point(), 1u32..8).prop_map(|(c, r)| (c, r as f32 * 0.125))
+}
+
+fn direction() -> impl Strategy<Value = Vec3> {
+    let component = prop_oneof![
+        3 => -1.0f32..1.0,
+        1 => Just(0.0f32),
+        1 => Just(-0.0f32),
+    ];
+    (component.clone(), component.clone(), component)
+        .prop_filter_map("zero direction", |(x, y, z)| {
+            Vec3::new(x, y, z).try_normalize()
+        })
+}
+
+fn ray() -> impl Strategy<Value = Ray> {
+    let origin = prop_oneof![
+        point(),
+        (-3.0f32..3.0, -3.0f32..3.0, -3.0f32..3.0).prop_map(Vec3::from)
+    ];
+    let range = prop_oneof![
+        3 => Just((0.0f32, f32::INFINITY)),
+        1 => (0.0f32..2.0, 0.5f32..6.0).prop_map(|(a, b)| (a, a + b)),
+    ];
+    (origin, direction(), range).prop_map(|(o, d, (t0, t1))| Ray::new(o, d).with_range(t0, t1))
+}
+
+fn geometry() -> impl Strategy<Value = Geometry> {
+    (
+        prop::collection::vec(triangle(), 0..80),
+        prop::collection::vec(sphere(), 0..6),
+    )
+        .prop_filter("empty scene", |(t, s)| !t.is_empty() || !s.is_empty())
+        .prop_map(|(triangles, spheres)| Geometry {
+            triangles,
+            spheres,
+            ..Geometry::default()
+        })
+}
+
+fn params() -> impl Strategy<Value = BuildParams> {
+    // Cheap traversal makes deep trees with many straddling primitives; 80/1 is the default.
+    prop_oneof![Just(80.0), Just(2.0), Just(20.0)].prop_map(|isect| BuildParams {
+        intersect_cost: isect,
+        parallel: false,
+        ..BuildParams::default()
+    })
+}
+
+/// The closest hit by testing every primitive.
+fn brute_force(scene: &Scene, ray: &Ray) -> Hit {
+    let mut best = Hit::MISS;
+    for prim in 0..scene.prim_count() {
+        if let Some((t, u, v)) = scene.intersect_prim::<Mixed>(prim, ray) {
+            if t < best.t {
+                best = Hit { t, prim, u, v };
+            }
+        }
+    }
+    best
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+    #[test]
+    fn traversal_equals_brute_force(
+        geom in geometry(),
+        params in params(),
+        rays in prop::collection::vec(ray(), 1..40),
+    ) {
+        let tree = build(&geom, &params, None).unwrap();
+        let words = serialize(&tree, &geom, 0.0).unwrap();
+        let scene = Scene::from_words(&words).unwrap();
+        for ray in &rays {
+            let expect = brute_force(&scene, ray);
+            let got = scene.intersect(ray);
+            prop_assert_eq!(got.t.to_bits(), expect.t.to_bits(), "ray {:?}: got {:?}, brute force {:?}\ntris {:?}\nspheres {:?}", ray, got, expect,
+                geom.triangles.iter().map(|t| t.map(|v| v.to_array())).collect::<Vec<_>>(), geom.spheres);
+            if got.prim != expect.prim {
+                // A tie at the same t (shared edge, coincident primitives): both are correct.
+                let own = scene.intersect_prim::<Mixed>(got.prim, ray).map(|h| h.0);
+                prop_assert_eq!(own, Some(expect.t), "ray {:?}: prim {} is not a tie", ray, got.prim);
+            }
+            prop_assert_eq!(scene.occluded(ray), expect.is_hit(), "any-hit disagrees for {:?}", ray);
+        }
+    }
+}
