@@ -31,6 +31,7 @@
 
 pub mod camera;
 pub mod format;
+pub mod isa;
 pub mod math;
 pub mod node;
 pub mod optics;

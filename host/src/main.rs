@@ -1,1 +1,81 @@
-fn main() {}
+//! The `kdray` command line. The contract (subcommands, flags, output line, exit codes) is fixed by
+//! DESIGN.md: input errors print `FILE[:LINE]: message` and exit 1, usage errors exit 2.
+
+mod commands;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "kdray", version, about = "Build, inspect and trace SAH kd-trees for the kdray core")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build a kd-tree from a mesh (.ply, .ply.gz, .obj, .tri) or a scene (.toml) into a .kdt file.
+    Build {
+        input: PathBuf,
+        #[arg(short, long)]
+        out: PathBuf,
+        #[command(flatten)]
+        build: commands::BuildArgs,
+    },
+    /// Print statistics of a .kdt file.
+    Info { file: PathBuf },
+    /// Trace a rays file through a scene (a .kdt or anything `build` accepts) and write the hits.
+    Trace {
+        input: PathBuf,
+        #[arg(long)]
+        rays: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        /// Rays per packet: 1 (single rays).
+        #[arg(long, default_value_t = 1, value_parser = commands::parse_packet)]
+        packet: u32,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Trace this many times and report the fastest.
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+        repeat: u32,
+        #[command(flatten)]
+        build: commands::BuildArgs,
+    },
+    /// Write a benchmark ray set (extension of the contract): primary rays of the framing camera
+    /// in 2x4 tiles, or one cosine-weighted diffuse bounce from each primary hit.
+    Rays {
+        input: PathBuf,
+        #[arg(short, long)]
+        out: PathBuf,
+        #[arg(long, value_enum, default_value_t = commands::RayKind::Primary)]
+        kind: commands::RayKind,
+        /// Image size WxH of the primary rays.
+        #[arg(long, default_value = "1024x1024", value_parser = commands::parse_size)]
+        size: (u32, u32),
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Build { input, out, build } => commands::build(&input, &out, &build),
+        Command::Info { file } => commands::info(&file),
+        Command::Trace { input, rays, out, packet, threads, repeat, build } => {
+            commands::trace(&commands::TraceArgs { input, rays, out, packet, threads, repeat, build })
+        }
+        Command::Rays { input, out, kind, size, seed } => commands::rays(&input, &out, kind, size, seed),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("kdray: {e}");
+            ExitCode::from(1)
+        }
+    }
+}

@@ -1,0 +1,131 @@
+//! `kdray build` and `kdray info`.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use kdray::build::{BuildParams, PROGRESS_TOTAL};
+use kdray::error::{Error, Result};
+use kdray::{Geometry, flat, load};
+use kdray_core::Scene;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+/// Builder settings shared by `build` and `trace`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct BuildArgs {
+    /// SAH cost of one primitive test, relative to one traversal step.
+    #[arg(long, default_value_t = BuildParams::default().intersect_cost)]
+    pub isect_cost: f64,
+    /// SAH cost of one traversal step.
+    #[arg(long, default_value_t = BuildParams::default().traversal_cost)]
+    pub trav_cost: f64,
+    /// Fraction of the cost saved by cutting off empty space.
+    #[arg(long, default_value_t = BuildParams::default().empty_bonus)]
+    pub empty_bonus: f64,
+    /// Maximum tree depth (default 8 + 1.3·log2 N).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Build on one thread.
+    #[arg(long)]
+    pub serial_build: bool,
+}
+
+impl Default for BuildArgs {
+    fn default() -> Self {
+        let p = BuildParams::default();
+        Self {
+            isect_cost: p.intersect_cost,
+            trav_cost: p.traversal_cost,
+            empty_bonus: p.empty_bonus,
+            max_depth: p.max_depth,
+            serial_build: !p.parallel,
+        }
+    }
+}
+
+impl BuildArgs {
+    pub fn params(&self) -> BuildParams {
+        BuildParams {
+            traversal_cost: self.trav_cost,
+            intersect_cost: self.isect_cost,
+            empty_bonus: self.empty_bonus,
+            max_depth: self.max_depth,
+            parallel: !self.serial_build,
+            ..BuildParams::default()
+        }
+    }
+}
+
+/// Builds `geom` with a progress bar; returns the words and the build time in ms.
+pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result<(Vec<u32>, f64)> {
+    let progress = AtomicU64::new(0);
+    let bar = ProgressBar::new(1000).with_message(format!("building {}", path.display()));
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {percent}% {elapsed}").expect("valid template"),
+    );
+    let start = Instant::now();
+    let tree = std::thread::scope(|s| {
+        let worker = s.spawn(|| kdray::build::build(geom, params, Some(&progress)));
+        while !worker.is_finished() {
+            std::thread::sleep(Duration::from_millis(100));
+            if start.elapsed() > Duration::from_millis(500) {
+                bar.set_position(progress.load(Ordering::Relaxed) * 1000 / PROGRESS_TOTAL);
+            }
+        }
+        worker.join().expect("builder thread panicked")
+    })
+    .map_err(|e| Error::new(path, e))?;
+    let build_ms = start.elapsed().as_secs_f64() * 1e3;
+    bar.finish_and_clear();
+    let words = flat::serialize(&tree, geom, build_ms as f32).map_err(|e| Error::new(path, e))?;
+    Ok((words, build_ms))
+}
+
+/// Loads a `.kdt`, or loads and builds anything else. Returns the words and the build time
+/// (the recorded one for a `.kdt`).
+pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("kdt")) {
+        let words = flat::read_kdt(path)?;
+        let ms = Scene::from_words(&words).map(|s| s.build_ms() as f64).unwrap_or(0.0);
+        return Ok((words, ms));
+    }
+    let geom = load::load_input(path)?;
+    build_words(path, &geom, &args.params())
+}
+
+pub fn build(input: &Path, out: &Path, args: &BuildArgs) -> Result<()> {
+    let geom = load::load_input(input)?;
+    let (words, build_ms) = build_words(input, &geom, &args.params())?;
+    flat::write_kdt(out, &words)?;
+    let scene = Scene::from_words(&words).map_err(|e| Error::new(out, e.to_string()))?;
+    println!(
+        "wrote {}: {} triangles, {} spheres, {} nodes, {} bytes, build_ms={build_ms:.1}",
+        out.display(),
+        scene.tri_count(),
+        scene.sphere_count(),
+        scene.node_count(),
+        words.len() * 4
+    );
+    Ok(())
+}
+
+pub fn info(file: &Path) -> Result<()> {
+    let words = flat::read_kdt(file)?;
+    let scene = Scene::from_words(&words).map_err(|e| Error::new(file, e.to_string()))?;
+    let s = flat::stats(&scene, words.len(), &BuildParams::default());
+    let [lo, hi] = scene.bounds();
+    println!("file            {}", file.display());
+    println!("triangles       {}", scene.tri_count());
+    println!("spheres         {}", scene.sphere_count());
+    println!("contents        {:#07b}", scene.contents());
+    println!("bounds          [{lo}] .. [{hi}]");
+    println!("nodes           {}", s.nodes);
+    println!("leaves          {}", s.leaves);
+    println!("empty leaves    {}", s.empty_leaves);
+    println!("prims per leaf  {:.3} (mean over non-empty leaves)", s.mean_prims_per_leaf);
+    println!("depth           {}", s.depth);
+    println!("sah cost        {:.3} (traversal 1, intersection 80)", s.sah_cost);
+    println!("bytes           {}", s.bytes);
+    println!("bytes per prim  {:.2}", s.bytes_per_prim);
+    println!("build ms        {:.1}", scene.build_ms());
+    Ok(())
+}

@@ -1,0 +1,112 @@
+//! `kdray trace` and `kdray rays`.
+
+use super::build::{BuildArgs, load_scene_words};
+use kdray::error::{Error, Result};
+use kdray::rays;
+use kdray_core::{Hit, Ray, Scene};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+pub struct TraceArgs {
+    pub input: PathBuf,
+    pub rays: PathBuf,
+    pub out: PathBuf,
+    pub packet: u32,
+    pub threads: Option<usize>,
+    pub repeat: u32,
+    pub build: BuildArgs,
+}
+
+/// Rays per parallel work item: large enough to amortize scheduling, small enough to balance.
+const CHUNK: usize = 4096;
+
+fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
+    hits.par_chunks_mut(CHUNK).zip(rays.par_chunks(CHUNK)).for_each(|(h, r)| {
+        for (hit, ray) in h.iter_mut().zip(r) {
+            *hit = scene.intersect(ray);
+        }
+    });
+}
+
+fn pool(path: &Path, threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(Error::new(path, "--threads must be at least 1"));
+        }
+        b = b.num_threads(n);
+    }
+    b.build().map_err(|e| Error::new(path, format!("cannot start threads: {e}")))
+}
+
+pub fn trace(args: &TraceArgs) -> Result<()> {
+    let (words, build_ms) = load_scene_words(&args.input, &args.build)?;
+    let scene = Scene::from_words(&words).map_err(|e| Error::new(&args.input, e.to_string()))?;
+    let rays = rays::read_rays(&args.rays)?;
+    let pool = pool(&args.input, args.threads)?;
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut best = f64::INFINITY;
+    for _ in 0..args.repeat {
+        let start = Instant::now();
+        pool.install(|| trace_all(&scene, &rays, &mut hits));
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    std::fs::write(&args.out, rays::encode_hits(&hits)).map_err(|e| Error::io(&args.out, e))?;
+    let n_hits = hits.iter().filter(|h| h.is_hit()).count();
+    let mrays = if best > 0.0 { rays.len() as f64 / best / 1e6 } else { 0.0 };
+    println!(
+        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={}",
+        best * 1e3,
+        rays.len(),
+        args.packet,
+        kdray_core::isa::name(),
+        pool.current_num_threads(),
+    );
+    Ok(())
+}
+
+/// Which ray set `kdray rays` writes.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayKind {
+    /// The framing pinhole camera's rays, in 2x4 pixel tiles.
+    Primary,
+    /// One cosine-weighted bounce from each primary hit.
+    Diffuse,
+}
+
+/// Parses `--packet`: the packet widths this build traces.
+pub fn parse_packet(s: &str) -> core::result::Result<u32, String> {
+    match s {
+        "1" => Ok(1),
+        _ => Err(format!("packet width must be 1, got '{s}'")),
+    }
+}
+
+/// Parses `WxH`.
+pub fn parse_size(s: &str) -> core::result::Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WxH, got '{s}'"))?;
+    let parse = |v: &str| v.trim().parse::<u32>().ok().filter(|&n| (1..=65536).contains(&n));
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!("sizes must be whole numbers from 1 to 65536, got '{s}'")),
+    }
+}
+
+pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64) -> Result<()> {
+    let (words, _) = load_scene_words(input, &BuildArgs::default())?;
+    let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
+    let camera = rays::framing_camera(scene.bounds());
+    let primary = rays::primary_rays(&camera, size.0, size.1);
+    let set = match kind {
+        RayKind::Primary => primary,
+        RayKind::Diffuse => {
+            let mut hits = vec![Hit::MISS; primary.len()];
+            trace_all(&scene, &primary, &mut hits);
+            rays::diffuse_rays(&scene, &primary, &hits, seed)
+        }
+    };
+    std::fs::write(out, rays::encode_rays(&set)).map_err(|e| Error::io(out, e))?;
+    println!("wrote {}: {} rays", out.display(), set.len());
+    Ok(())
+}

@@ -1,0 +1,194 @@
+//! Ray and hit files (DESIGN.md, "Binary formats") and the benchmark protocol's ray sets.
+//!
+//! - rays: `n × 8 f32`: `ox oy oz dx dy dz tmin tmax`, little-endian, no header;
+//! - hits: `n × (f32 t, u32 prim, f32 u, f32 v)`; a miss is `t = +inf`, `prim = 0xFFFF_FFFF`.
+
+use crate::error::{Error, Result};
+use glam::Vec3;
+use kdray_core::camera::{Camera, Pinhole};
+use kdray_core::sampling::{Onb, cosine_hemisphere};
+use kdray_core::{Hit, Ray, Scene};
+use std::path::Path;
+
+/// Bytes per ray record.
+pub const RAY_BYTES: usize = 32;
+/// Bytes per hit record.
+pub const HIT_BYTES: usize = 16;
+
+/// Decodes a rays file.
+///
+/// # Errors
+/// A length that is not a whole number of records. Non-finite values are kept: traversal reports
+/// such rays as misses.
+pub fn decode_rays(path: &Path, bytes: &[u8]) -> Result<Vec<Ray>> {
+    if bytes.len() % RAY_BYTES != 0 {
+        return Err(Error::new(
+            path,
+            format!(
+                "{} bytes is not a whole number of {RAY_BYTES}-byte rays (truncated?)",
+                bytes.len()
+            ),
+        ));
+    }
+    Ok(bytes
+        .chunks_exact(RAY_BYTES)
+        .map(|c| {
+            let f =
+                |i: usize| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]]);
+            Ray {
+                origin: Vec3::new(f(0), f(1), f(2)),
+                dir: Vec3::new(f(3), f(4), f(5)),
+                tmin: f(6),
+                tmax: f(7),
+            }
+        })
+        .collect())
+}
+
+/// Reads a rays file.
+pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    decode_rays(path, &bytes)
+}
+
+/// Encodes rays.
+pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(rays.len() * RAY_BYTES);
+    for r in rays {
+        for v in [
+            r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax,
+        ] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// Encodes hits.
+pub fn encode_hits(hits: &[Hit]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(hits.len() * HIT_BYTES);
+    for h in hits {
+        out.extend_from_slice(&h.t.to_le_bytes());
+        out.extend_from_slice(&h.prim.to_le_bytes());
+        out.extend_from_slice(&h.u.to_le_bytes());
+        out.extend_from_slice(&h.v.to_le_bytes());
+    }
+    out
+}
+
+/// Decodes a hits file.
+pub fn decode_hits(path: &Path, bytes: &[u8]) -> Result<Vec<Hit>> {
+    if bytes.len() % HIT_BYTES != 0 {
+        return Err(Error::new(
+            path,
+            format!(
+                "{} bytes is not a whole number of {HIT_BYTES}-byte hits",
+                bytes.len()
+            ),
+        ));
+    }
+    Ok(bytes
+        .chunks_exact(HIT_BYTES)
+        .map(|c| {
+            let w = |i: usize| [c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]];
+            Hit {
+                t: f32::from_le_bytes(w(0)),
+                prim: u32::from_le_bytes(w(1)),
+                u: f32::from_le_bytes(w(2)),
+                v: f32::from_le_bytes(w(3)),
+            }
+        })
+        .collect())
+}
+
+/// The benchmark protocol's camera: a pinhole looking along −z at the centre of `bounds`, far
+/// enough that the bounding sphere fills a 45° vertical field of view.
+pub fn framing_camera(bounds: [Vec3; 2]) -> Pinhole {
+    let center = 0.5 * (bounds[0] + bounds[1]);
+    let radius = (0.5 * (bounds[1] - bounds[0]).length()).max(1e-3);
+    let vfov = 45.0f32;
+    let dist = radius / (0.5 * vfov.to_radians()).sin();
+    let eye = center + Vec3::new(0.0, 0.0, dist);
+    Pinhole::look_at(eye, center, Vec3::Y, vfov).expect("finite, non-degenerate framing")
+}
+
+/// Width and height of the protocol's pixel tiles: 8 consecutive rays are one 2×4 (W×H) tile.
+pub const TILE: (u32, u32) = (2, 4);
+
+/// Primary rays of a `width × height` image through `camera`, ordered tile by tile (tiles in
+/// row-major order, pixels row-major inside a tile). Sizes need not be multiples of the tile:
+/// tiles at the border are cut.
+pub fn primary_rays(camera: &impl Camera, width: u32, height: u32) -> Vec<Ray> {
+    let mut rays = Vec::with_capacity(width as usize * height as usize);
+    for ty in (0..height).step_by(TILE.1 as usize) {
+        for tx in (0..width).step_by(TILE.0 as usize) {
+            for y in ty..(ty + TILE.1).min(height) {
+                for x in tx..(tx + TILE.0).min(width) {
+                    rays.push(camera.pixel_ray(x, y, width, height));
+                }
+            }
+        }
+    }
+    rays
+}
+
+/// A small, fast, reproducible generator (PCG32, O'Neill 2014) for sampling ray sets.
+#[derive(Clone, Debug)]
+pub struct Pcg32 {
+    state: u64,
+    inc: u64,
+}
+
+impl Pcg32 {
+    pub fn new(seed: u64, stream: u64) -> Self {
+        let mut rng = Self {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
+        rng.next_u32();
+        rng.state = rng.state.wrapping_add(seed);
+        rng.next_u32();
+        rng
+    }
+
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        xorshifted.rotate_right((old >> 59) as u32)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+}
+
+/// The protocol's secondary rays: one cosine-weighted bounce from each primary hit, around the
+/// geometric normal turned towards the incoming ray, starting at the hit point with `tmin` scaled
+/// to the scene so the surface itself is not hit again. Misses produce no ray.
+pub fn diffuse_rays(scene: &Scene, primary: &[Ray], hits: &[Hit], seed: u64) -> Vec<Ray> {
+    let mut rng = Pcg32::new(seed, 0x6b64_7261);
+    let [lo, hi] = scene.bounds();
+    let eps = 1e-4 * (hi - lo).abs().max_element().max(1e-6);
+    let mut out = Vec::with_capacity(hits.len());
+    for (ray, hit) in primary.iter().zip(hits) {
+        if !hit.is_hit() {
+            continue;
+        }
+        let p = ray.at(hit.t);
+        let n = if hit.prim < scene.tri_count() {
+            scene.triangle(hit.prim).geometric_normal()
+        } else {
+            scene.sphere(hit.prim - scene.tri_count()).normal(p)
+        };
+        let Some(n) = n.try_normalize() else { continue };
+        let n = if n.dot(ray.dir) > 0.0 { -n } else { n };
+        let local = cosine_hemisphere(rng.next_f32(), rng.next_f32());
+        let dir = Onb::from_normal(n).to_world(local).normalize();
+        out.push(Ray::new(p, dir).with_range(eps, f32::INFINITY));
+    }
+    out
+}

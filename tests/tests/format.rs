@@ -1,0 +1,172 @@
+//! `Scene::from_words`: never panics on arbitrary words, and rejects each kind of corruption
+//! with its own error.
+
+use glam::Vec3;
+use kdray::Geometry;
+use kdray::build::{BuildParams, build};
+use kdray::flat::serialize;
+use kdray_core::format::{FormatError, HEADER_WORDS, MAGIC, VERSION, contents, header};
+use kdray_core::node::Node;
+use kdray_core::{Ray, Scene};
+use proptest::prelude::*;
+
+/// A small valid scene: a fan of triangles and two spheres, built with the real builder.
+fn valid_words() -> Vec<u32> {
+    let mut triangles = Vec::new();
+    for i in 0..12 {
+        let a = i as f32 * 0.5;
+        triangles.push([Vec3::new(a, 0.0, 0.0), Vec3::new(a + 1.0, 0.0, 0.3), Vec3::new(a, 1.0, -0.2)]);
+    }
+    let geom = Geometry {
+        triangles,
+        spheres: vec![(Vec3::new(2.0, 3.0, 0.0), 0.5), (Vec3::new(-1.0, 0.0, 1.0), 0.25)],
+        ..Geometry::default()
+    };
+    let tree = build(&geom, &BuildParams { parallel: false, ..BuildParams::default() }, None).unwrap();
+    serialize(&tree, &geom, 1.0).unwrap()
+}
+
+fn check(words: &[u32]) -> Result<(), FormatError> {
+    Scene::from_words(words).map(|_| ())
+}
+
+/// The first interior node and the first leaf with more than one primitive.
+fn find_nodes(words: &[u32]) -> (usize, Option<usize>) {
+    let base = words[header::NODES_OFFSET] as usize;
+    let n = words[header::NODE_COUNT] as usize;
+    let node = |i: usize| Node::from_words([words[base + 2 * i], words[base + 2 * i + 1]]);
+    let interior = (0..n).find(|&i| !node(i).is_leaf()).unwrap();
+    let many = (0..n).find(|&i| node(i).is_leaf() && node(i).prim_count() > 1);
+    (base + 2 * interior, many.map(|i| base + 2 * i))
+}
+
+#[test]
+fn valid_scene_is_accepted_and_traced() {
+    let words = valid_words();
+    let scene = Scene::from_words(&words).unwrap();
+    assert_eq!(scene.tri_count(), 12);
+    assert_eq!(scene.sphere_count(), 2);
+    let hit = scene.intersect(&Ray::new(Vec3::new(2.0, 3.0, 5.0), Vec3::NEG_Z));
+    assert_eq!(hit.prim, 12);
+    assert!((hit.t - 4.5).abs() < 1e-5);
+}
+
+#[test]
+fn each_corruption_has_its_own_error() {
+    let good = valid_words();
+    let corrupt = |f: &dyn Fn(&mut Vec<u32>)| {
+        let mut w = good.clone();
+        f(&mut w);
+        check(&w)
+    };
+    assert_eq!(check(&good[..HEADER_WORDS - 1]), Err(FormatError::TooShort));
+    assert_eq!(corrupt(&|w| w[header::MAGIC] ^= 1), Err(FormatError::BadMagic));
+    assert_eq!(corrupt(&|w| w[header::VERSION] = VERSION + 1), Err(FormatError::UnsupportedVersion(VERSION + 1)));
+    assert_eq!(corrupt(&|w| w[header::CONTENTS] |= 1 << 20), Err(FormatError::BadContents));
+    assert_eq!(corrupt(&|w| w[header::CONTENTS] &= !contents::SPHERES), Err(FormatError::BadContents));
+    // Truncation and trailing words.
+    assert!(matches!(corrupt(&|w| { w.pop(); }), Err(FormatError::LengthMismatch { .. })));
+    assert!(matches!(corrupt(&|w| w.push(0)), Err(FormatError::LengthMismatch { .. })));
+    assert_eq!(corrupt(&|w| w[HEADER_WORDS - 1] = 7), Err(FormatError::ReservedNotZero));
+    // A count whose section size overflows, and one that runs past the end.
+    assert_eq!(corrupt(&|w| w[header::TRI_COUNT] = u32::MAX), Err(FormatError::CountOverflow));
+    assert_eq!(corrupt(&|w| w[header::SPHERE_COUNT] += 1000), Err(FormatError::SectionOutOfBounds));
+    assert_eq!(corrupt(&|w| w[header::TRIS_OFFSET] = 8), Err(FormatError::SectionOutOfBounds));
+    assert_eq!(corrupt(&|w| w[header::TRIS_OFFSET] += 1), Err(FormatError::SectionOutOfBounds));
+    assert_eq!(
+        corrupt(&|w| w[header::SPHERES_OFFSET] = w[header::TRIS_OFFSET]),
+        Err(FormatError::SectionsOverlap)
+    );
+    assert_eq!(corrupt(&|w| w[header::BOUNDS] = f32::NAN.to_bits()), Err(FormatError::BadBounds));
+    assert_eq!(
+        corrupt(&|w| w[header::BOUNDS] = 1e30f32.to_bits()),
+        Err(FormatError::BadBounds),
+        "min above max"
+    );
+    let tris = good[header::TRIS_OFFSET] as usize;
+    assert_eq!(corrupt(&|w| w[tris + 4] = f32::INFINITY.to_bits()), Err(FormatError::NonFiniteGeometry));
+    let spheres = good[header::SPHERES_OFFSET] as usize;
+    assert_eq!(corrupt(&|w| w[spheres + 3] = (-1.0f32).to_bits()), Err(FormatError::NonFiniteGeometry));
+    assert_eq!(corrupt(&|w| w[header::DEPTH] += 1), Err(FormatError::BadDepth));
+    let (interior, many) = find_nodes(&good);
+    assert!(matches!(corrupt(&|w| w[interior] = f32::NAN.to_bits()), Err(FormatError::BadSplit { .. })));
+    // Above child pointing back at its parent (a cycle), and past the end.
+    assert!(matches!(corrupt(&|w| w[interior + 1] &= 3), Err(FormatError::BadChild { .. })));
+    assert!(matches!(corrupt(&|w| w[interior + 1] |= 0x3fff_fff0 << 2), Err(FormatError::BadChild { .. })));
+    // A leaf naming a primitive that does not exist, and an index-list range past its end.
+    let many = many.expect("the scene has a multi-primitive leaf");
+    let one_missing = |w: &mut Vec<u32>| {
+        w[many] = 10_000;
+        w[many + 1] = Node::leaf(1, 0).words()[1];
+    };
+    assert!(matches!(corrupt(&one_missing), Err(FormatError::BadPrimitive { .. })));
+    assert!(matches!(corrupt(&|w| w[many] = u32::MAX - 1), Err(FormatError::BadPrimitive { .. })));
+    let indices = good[header::INDICES_OFFSET] as usize;
+    assert!(matches!(corrupt(&|w| w[indices] = 10_000), Err(FormatError::BadPrimitive { .. })));
+}
+
+#[test]
+fn a_dag_of_shared_nodes_is_rejected_not_walked() {
+    // 40 interior nodes whose children are both the next node: 2^40 paths if walked naively.
+    let n = 41u32;
+    let mut w = vec![0u32; HEADER_WORDS];
+    w[header::MAGIC] = MAGIC;
+    w[header::VERSION] = VERSION;
+    w[header::NODE_COUNT] = n;
+    w[header::DEPTH] = 40;
+    w[header::NODES_OFFSET] = HEADER_WORDS as u32;
+    for i in 0..n - 1 {
+        w.extend(Node::interior(0, 0.0, i + 1).words());
+    }
+    w.extend(Node::leaf(0, 0).words());
+    w[header::TOTAL_WORDS] = w.len() as u32;
+    assert!(matches!(check(&w), Err(FormatError::BadChild { .. })));
+}
+
+#[test]
+fn a_tree_deeper_than_the_stack_is_rejected() {
+    // A valid chain: every interior node's below child is a leaf, the above child goes deeper.
+    let depth = kdray_core::format::MAX_DEPTH as u32 + 1;
+    let mut w = vec![0u32; HEADER_WORDS];
+    let mut nodes = Vec::new();
+    for i in 0..depth {
+        nodes.push(Node::interior(0, 0.0, 2 * i + 2));
+        nodes.push(Node::leaf(0, 0));
+    }
+    nodes.push(Node::leaf(0, 0));
+    w[header::MAGIC] = MAGIC;
+    w[header::VERSION] = VERSION;
+    w[header::NODE_COUNT] = nodes.len() as u32;
+    w[header::DEPTH] = depth;
+    w[header::NODES_OFFSET] = HEADER_WORDS as u32;
+    w.extend(nodes.iter().flat_map(|n| n.words()));
+    w[header::TOTAL_WORDS] = w.len() as u32;
+    assert_eq!(check(&w), Err(FormatError::BadDepth));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+    /// Arbitrary words never panic (and mostly fail the magic test) ...
+    #[test]
+    fn arbitrary_words_never_panic(words in prop::collection::vec(any::<u32>(), 0..200)) {
+        let _ = check(&words);
+    }
+
+    /// ... so also mutate a valid scene in a few random words, which reaches the deep checks; a
+    /// mutation that still validates must trace without panicking.
+    #[test]
+    fn mutated_scenes_never_panic(edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u32>()), 1..6)) {
+        let mut words = valid_words();
+        let len = words.len();
+        for (at, value) in edits {
+            words[at.index(len)] = value;
+        }
+        if let Ok(scene) = Scene::from_words(&words) {
+            for d in [Vec3::X, Vec3::NEG_Y, Vec3::new(0.3, 0.4, -0.5).normalize()] {
+                let _ = scene.intersect(&Ray::new(Vec3::new(1.0, 0.5, 0.0), d));
+                let _ = scene.occluded(&Ray::new(Vec3::new(1.0, 0.5, 0.0), d));
+            }
+        }
+    }
+}
