@@ -8,7 +8,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "kdray", version, about = "Build, inspect and trace SAH kd-trees for the kdray core")]
+#[command(
+    name = "kdray",
+    version,
+    about = "Build, inspect and trace SAH kd-trees for the kdray core"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -66,10 +70,30 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Build { input, out, build } => commands::build(&input, &out, &build),
         Command::Info { file } => commands::info(&file),
-        Command::Trace { input, rays, out, packet, threads, repeat, build } => {
-            commands::trace(&commands::TraceArgs { input, rays, out, packet, threads, repeat, build })
-        }
-        Command::Rays { input, out, kind, size, seed } => commands::rays(&input, &out, kind, size, seed),
+        Command::Trace {
+            input,
+            rays,
+            out,
+            packet,
+            threads,
+            repeat,
+            build,
+        } => commands::trace(&commands::TraceArgs {
+            input,
+            rays,
+            out,
+            packet,
+            threads,
+            repeat,
+            build,
+        }),
+        Command::Rays {
+            input,
+            out,
+            kind,
+            size,
+            seed,
+        } => commands::rays(&input, &out, kind, size, seed),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,14 +15,29 @@ fn valid_words() -> Vec<u32> {
     let mut triangles = Vec::new();
     for i in 0..12 {
         let a = i as f32 * 0.5;
-        triangles.push([Vec3::new(a, 0.0, 0.0), Vec3::new(a + 1.0, 0.0, 0.3), Vec3::new(a, 1.0, -0.2)]);
+        triangles.push([
+            Vec3::new(a, 0.0, 0.0),
+            Vec3::new(a + 1.0, 0.0, 0.3),
+            Vec3::new(a, 1.0, -0.2),
+        ]);
     }
     let geom = Geometry {
         triangles,
-        spheres: vec![(Vec3::new(2.0, 3.0, 0.0), 0.5), (Vec3::new(-1.0, 0.0, 1.0), 0.25)],
+        spheres: vec![
+            (Vec3::new(2.0, 3.0, 0.0), 0.5),
+            (Vec3::new(-1.0, 0.0, 1.0), 0.25),
+        ],
         ..Geometry::default()
     };
-    let tree = build(&geom, &BuildParams { parallel: false, ..BuildParams::default() }, None).unwrap();
+    let tree = build(
+        &geom,
+        &BuildParams {
+            parallel: false,
+            ..BuildParams::default()
+        },
+        None,
+    )
+    .unwrap();
     serialize(&tree, &geom, 1.0).unwrap()
 }
 
@@ -60,49 +75,114 @@ fn each_corruption_has_its_own_error() {
         check(&w)
     };
     assert_eq!(check(&good[..HEADER_WORDS - 1]), Err(FormatError::TooShort));
-    assert_eq!(corrupt(&|w| w[header::MAGIC] ^= 1), Err(FormatError::BadMagic));
-    assert_eq!(corrupt(&|w| w[header::VERSION] = VERSION + 1), Err(FormatError::UnsupportedVersion(VERSION + 1)));
-    assert_eq!(corrupt(&|w| w[header::CONTENTS] |= 1 << 20), Err(FormatError::BadContents));
-    assert_eq!(corrupt(&|w| w[header::CONTENTS] &= !contents::SPHERES), Err(FormatError::BadContents));
+    assert_eq!(
+        corrupt(&|w| w[header::MAGIC] ^= 1),
+        Err(FormatError::BadMagic)
+    );
+    assert_eq!(
+        corrupt(&|w| w[header::VERSION] = VERSION + 1),
+        Err(FormatError::UnsupportedVersion(VERSION + 1))
+    );
+    assert_eq!(
+        corrupt(&|w| w[header::CONTENTS] |= 1 << 20),
+        Err(FormatError::BadContents)
+    );
+    assert_eq!(
+        corrupt(&|w| w[header::CONTENTS] &= !contents::SPHERES),
+        Err(FormatError::BadContents)
+    );
     // Truncation and trailing words.
-    assert!(matches!(corrupt(&|w| { w.pop(); }), Err(FormatError::LengthMismatch { .. })));
-    assert!(matches!(corrupt(&|w| w.push(0)), Err(FormatError::LengthMismatch { .. })));
-    assert_eq!(corrupt(&|w| w[HEADER_WORDS - 1] = 7), Err(FormatError::ReservedNotZero));
+    assert!(matches!(
+        corrupt(&|w| {
+            w.pop();
+        }),
+        Err(FormatError::LengthMismatch { .. })
+    ));
+    assert!(matches!(
+        corrupt(&|w| w.push(0)),
+        Err(FormatError::LengthMismatch { .. })
+    ));
+    assert_eq!(
+        corrupt(&|w| w[HEADER_WORDS - 1] = 7),
+        Err(FormatError::ReservedNotZero)
+    );
     // A count whose section size overflows, and one that runs past the end.
-    assert_eq!(corrupt(&|w| w[header::TRI_COUNT] = u32::MAX), Err(FormatError::CountOverflow));
-    assert_eq!(corrupt(&|w| w[header::SPHERE_COUNT] += 1000), Err(FormatError::SectionOutOfBounds));
-    assert_eq!(corrupt(&|w| w[header::TRIS_OFFSET] = 8), Err(FormatError::SectionOutOfBounds));
-    assert_eq!(corrupt(&|w| w[header::TRIS_OFFSET] += 1), Err(FormatError::SectionOutOfBounds));
+    assert_eq!(
+        corrupt(&|w| w[header::TRI_COUNT] = u32::MAX),
+        Err(FormatError::CountOverflow)
+    );
+    assert_eq!(
+        corrupt(&|w| w[header::SPHERE_COUNT] += 1000),
+        Err(FormatError::SectionOutOfBounds)
+    );
+    assert_eq!(
+        corrupt(&|w| w[header::TRIS_OFFSET] = 8),
+        Err(FormatError::SectionOutOfBounds)
+    );
+    assert_eq!(
+        corrupt(&|w| w[header::TRIS_OFFSET] += 1),
+        Err(FormatError::SectionOutOfBounds)
+    );
     assert_eq!(
         corrupt(&|w| w[header::SPHERES_OFFSET] = w[header::TRIS_OFFSET]),
         Err(FormatError::SectionsOverlap)
     );
-    assert_eq!(corrupt(&|w| w[header::BOUNDS] = f32::NAN.to_bits()), Err(FormatError::BadBounds));
+    assert_eq!(
+        corrupt(&|w| w[header::BOUNDS] = f32::NAN.to_bits()),
+        Err(FormatError::BadBounds)
+    );
     assert_eq!(
         corrupt(&|w| w[header::BOUNDS] = 1e30f32.to_bits()),
         Err(FormatError::BadBounds),
         "min above max"
     );
     let tris = good[header::TRIS_OFFSET] as usize;
-    assert_eq!(corrupt(&|w| w[tris + 4] = f32::INFINITY.to_bits()), Err(FormatError::NonFiniteGeometry));
+    assert_eq!(
+        corrupt(&|w| w[tris + 4] = f32::INFINITY.to_bits()),
+        Err(FormatError::NonFiniteGeometry)
+    );
     let spheres = good[header::SPHERES_OFFSET] as usize;
-    assert_eq!(corrupt(&|w| w[spheres + 3] = (-1.0f32).to_bits()), Err(FormatError::NonFiniteGeometry));
-    assert_eq!(corrupt(&|w| w[header::DEPTH] += 1), Err(FormatError::BadDepth));
+    assert_eq!(
+        corrupt(&|w| w[spheres + 3] = (-1.0f32).to_bits()),
+        Err(FormatError::NonFiniteGeometry)
+    );
+    assert_eq!(
+        corrupt(&|w| w[header::DEPTH] += 1),
+        Err(FormatError::BadDepth)
+    );
     let (interior, many) = find_nodes(&good);
-    assert!(matches!(corrupt(&|w| w[interior] = f32::NAN.to_bits()), Err(FormatError::BadSplit { .. })));
+    assert!(matches!(
+        corrupt(&|w| w[interior] = f32::NAN.to_bits()),
+        Err(FormatError::BadSplit { .. })
+    ));
     // Above child pointing back at its parent (a cycle), and past the end.
-    assert!(matches!(corrupt(&|w| w[interior + 1] &= 3), Err(FormatError::BadChild { .. })));
-    assert!(matches!(corrupt(&|w| w[interior + 1] |= 0x3fff_fff0 << 2), Err(FormatError::BadChild { .. })));
+    assert!(matches!(
+        corrupt(&|w| w[interior + 1] &= 3),
+        Err(FormatError::BadChild { .. })
+    ));
+    assert!(matches!(
+        corrupt(&|w| w[interior + 1] |= 0x3fff_fff0 << 2),
+        Err(FormatError::BadChild { .. })
+    ));
     // A leaf naming a primitive that does not exist, and an index-list range past its end.
     let many = many.expect("the scene has a multi-primitive leaf");
     let one_missing = |w: &mut Vec<u32>| {
         w[many] = 10_000;
         w[many + 1] = Node::leaf(1, 0).words()[1];
     };
-    assert!(matches!(corrupt(&one_missing), Err(FormatError::BadPrimitive { .. })));
-    assert!(matches!(corrupt(&|w| w[many] = u32::MAX - 1), Err(FormatError::BadPrimitive { .. })));
+    assert!(matches!(
+        corrupt(&one_missing),
+        Err(FormatError::BadPrimitive { .. })
+    ));
+    assert!(matches!(
+        corrupt(&|w| w[many] = u32::MAX - 1),
+        Err(FormatError::BadPrimitive { .. })
+    ));
     let indices = good[header::INDICES_OFFSET] as usize;
-    assert!(matches!(corrupt(&|w| w[indices] = 10_000), Err(FormatError::BadPrimitive { .. })));
+    assert!(matches!(
+        corrupt(&|w| w[indices] = 10_000),
+        Err(FormatError::BadPrimitive { .. })
+    ));
 }
 
 #[test]

@@ -62,27 +62,6 @@ pub fn sort_events(events: &mut [Event]) {
     events.sort_unstable_by_key(Event::key);
 }
 
-/// Merges two sorted lists.
-pub fn merge(a: Vec<Event>, b: Vec<Event>) -> Vec<Event> {
-    if b.is_empty() {
-        return a;
-    }
-    let mut out = Vec::with_capacity(a.len() + b.len());
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        if b[j].key() < a[i].key() {
-            out.push(b[j]);
-            j += 1;
-        } else {
-            out.push(a[i]);
-            i += 1;
-        }
-    }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    out
-}
-
 /// SAH cost constants (pbrt-v3's `KdTreeAccel` parameters).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Costs {
@@ -100,28 +79,6 @@ pub struct Split {
     pub planar_below: bool,
 }
 
-/// The SAH cost of splitting `bounds` on `axis` at `pos` with `nb` primitives below and `na`
-/// above: `Kt + Ki·(1 − bonus)·(P_b·n_b + P_a·n_a)`, the bonus applying when a side is empty
-/// (pbrt-v3 §4.4.2, after MacDonald & Booth 1990).
-fn sah(
-    costs: &Costs,
-    bounds: &Aabb,
-    inv_area: f64,
-    axis: usize,
-    pos: f32,
-    nb: usize,
-    na: usize,
-) -> f64 {
-    let (below, above) = bounds.split(axis, pos);
-    let (pb, pa) = (below.area() * inv_area, above.area() * inv_area);
-    let bonus = if nb == 0 || na == 0 {
-        costs.empty_bonus
-    } else {
-        0.0
-    };
-    costs.traversal + costs.intersect * (1.0 - bonus) * (pb * nb as f64 + pa * na as f64)
-}
-
 /// One sweep over a sorted event list of `axis`: the best split strictly inside `bounds`.
 pub fn best_split_on_axis(
     events: &[Event],
@@ -135,6 +92,23 @@ pub fn best_split_on_axis(
         return None;
     }
     let (lo, hi) = (bounds.min[axis], bounds.max[axis]);
+    // The SAH cost `Kt + Ki·(1 − bonus)·(P_b·n_b + P_a·n_a)`, the bonus applying when a side is
+    // empty (pbrt-v3 §4.4.2, after MacDonald & Booth 1990). With `a`, `b` the box's other two
+    // extents, a child's area is `2(ab + (a + b)·length)`.
+    let d = (bounds.max - bounds.min).as_dvec3();
+    let (a, b) = (d[(axis + 1) % 3], d[(axis + 2) % 3]);
+    let (cap, side) = (2.0 * a * b * inv_area, 2.0 * (a + b) * inv_area);
+    let (lo64, hi64) = (lo as f64, hi as f64);
+    let sah = |pos: f64, nb: usize, na: usize| {
+        let pb = cap + side * (pos - lo64);
+        let pa = cap + side * (hi64 - pos);
+        let bonus = if nb == 0 || na == 0 {
+            costs.empty_bonus
+        } else {
+            0.0
+        };
+        costs.traversal + costs.intersect * (1.0 - bonus) * (pb * nb as f64 + pa * na as f64)
+    };
     let mut best: Option<Split> = None;
     let (mut nb, mut na) = (0usize, n);
     let mut i = 0;
@@ -150,8 +124,8 @@ pub fn best_split_on_axis(
         let [ends, planars, starts] = counts;
         na -= ends + planars;
         if pos > lo && pos < hi {
-            let below = sah(costs, bounds, inv_area, axis, pos, nb + planars, na);
-            let above = sah(costs, bounds, inv_area, axis, pos, nb, na + planars);
+            let below = sah(pos as f64, nb + planars, na);
+            let above = sah(pos as f64, nb, na + planars);
             let (cost, planar_below) = if below <= above {
                 (below, true)
             } else {

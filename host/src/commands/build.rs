@@ -60,7 +60,8 @@ pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result
     let progress = AtomicU64::new(0);
     let bar = ProgressBar::new(1000).with_message(format!("building {}", path.display()));
     bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {percent}% {elapsed}").expect("valid template"),
+        ProgressStyle::with_template("{msg} [{bar:30}] {percent}% {elapsed}")
+            .expect("valid template"),
     );
     let start = Instant::now();
     let tree = std::thread::scope(|s| {
@@ -83,9 +84,14 @@ pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result
 /// Loads a `.kdt`, or loads and builds anything else. Returns the words and the build time
 /// (the recorded one for a `.kdt`).
 pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)> {
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("kdt")) {
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("kdt"))
+    {
         let words = flat::read_kdt(path)?;
-        let ms = Scene::from_words(&words).map(|s| s.build_ms() as f64).unwrap_or(0.0);
+        let ms = Scene::from_words(&words)
+            .map(|s| s.build_ms() as f64)
+            .unwrap_or(0.0);
         return Ok((words, ms));
     }
     let geom = load::load_input(path)?;
@@ -121,9 +127,15 @@ pub fn info(file: &Path) -> Result<()> {
     println!("nodes           {}", s.nodes);
     println!("leaves          {}", s.leaves);
     println!("empty leaves    {}", s.empty_leaves);
-    println!("prims per leaf  {:.3} (mean over non-empty leaves)", s.mean_prims_per_leaf);
+    println!(
+        "prims per leaf  {:.3} (mean over non-empty leaves)",
+        s.mean_prims_per_leaf
+    );
     println!("depth           {}", s.depth);
-    println!("sah cost        {:.3} (traversal 1, intersection 80)", s.sah_cost);
+    println!(
+        "sah cost        {:.3} (traversal 1, intersection 80)",
+        s.sah_cost
+    );
     println!("bytes           {}", s.bytes);
     println!("bytes per prim  {:.2}", s.bytes_per_prim);
     println!("build ms        {:.1}", scene.build_ms());

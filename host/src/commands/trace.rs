@@ -22,11 +22,13 @@ pub struct TraceArgs {
 const CHUNK: usize = 4096;
 
 fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
-    hits.par_chunks_mut(CHUNK).zip(rays.par_chunks(CHUNK)).for_each(|(h, r)| {
-        for (hit, ray) in h.iter_mut().zip(r) {
-            *hit = scene.intersect(ray);
-        }
-    });
+    hits.par_chunks_mut(CHUNK)
+        .zip(rays.par_chunks(CHUNK))
+        .for_each(|(h, r)| {
+            for (hit, ray) in h.iter_mut().zip(r) {
+                *hit = scene.intersect(ray);
+            }
+        });
 }
 
 fn pool(path: &Path, threads: Option<usize>) -> Result<rayon::ThreadPool> {
@@ -37,7 +39,8 @@ fn pool(path: &Path, threads: Option<usize>) -> Result<rayon::ThreadPool> {
         }
         b = b.num_threads(n);
     }
-    b.build().map_err(|e| Error::new(path, format!("cannot start threads: {e}")))
+    b.build()
+        .map_err(|e| Error::new(path, format!("cannot start threads: {e}")))
 }
 
 pub fn trace(args: &TraceArgs) -> Result<()> {
@@ -54,7 +57,11 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
     }
     std::fs::write(&args.out, rays::encode_hits(&hits)).map_err(|e| Error::io(&args.out, e))?;
     let n_hits = hits.iter().filter(|h| h.is_hit()).count();
-    let mrays = if best > 0.0 { rays.len() as f64 / best / 1e6 } else { 0.0 };
+    let mrays = if best > 0.0 {
+        rays.len() as f64 / best / 1e6
+    } else {
+        0.0
+    };
     println!(
         "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={}",
         best * 1e3,
@@ -85,11 +92,20 @@ pub fn parse_packet(s: &str) -> core::result::Result<u32, String> {
 
 /// Parses `WxH`.
 pub fn parse_size(s: &str) -> core::result::Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WxH, got '{s}'"))?;
-    let parse = |v: &str| v.trim().parse::<u32>().ok().filter(|&n| (1..=65536).contains(&n));
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH, got '{s}'"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| (1..=65536).contains(&n))
+    };
     match (parse(w), parse(h)) {
         (Some(w), Some(h)) => Ok((w, h)),
-        _ => Err(format!("sizes must be whole numbers from 1 to 65536, got '{s}'")),
+        _ => Err(format!(
+            "sizes must be whole numbers from 1 to 65536, got '{s}'"
+        )),
     }
 }
 
