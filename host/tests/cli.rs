@@ -1,0 +1,201 @@
+//! The `kdray` binary's contract: exit codes, messages that name the file, the `trace` line,
+//! and hits that agree with the library.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn kdray(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_kdray"))
+        .args(args)
+        .output()
+        .expect("run kdray")
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("kdray-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn tri_file(path: &Path, tris: &[[f32; 9]]) {
+    let mut b = (tris.len() as u32).to_le_bytes().to_vec();
+    for t in tris {
+        for v in t {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, b).unwrap();
+}
+
+fn ray_bytes(rays: &[[f32; 8]]) -> Vec<u8> {
+    rays.iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
+#[test]
+fn build_info_trace_round_trip() {
+    let d = dir("roundtrip");
+    let mesh = d.join("two.tri");
+    // Two triangles in the planes z = 0 and z = -1, both covering the origin's column.
+    tri_file(
+        &mesh,
+        &[
+            [-1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 0.0, 1.0, 0.0],
+            [-1.0, -1.0, -1.0, 1.0, -1.0, -1.0, 0.0, 1.0, -1.0],
+        ],
+    );
+    let kdt = d.join("two.kdt");
+    let out = kdray(&["build", s(&mesh), "-o", s(&kdt)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let info = kdray(&["info", s(&kdt)]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(info.status.success());
+    for key in [
+        "nodes",
+        "leaves",
+        "empty leaves",
+        "prims per leaf",
+        "depth",
+        "sah cost",
+        "bytes per prim",
+        "build ms",
+    ] {
+        assert!(text.contains(key), "info lacks '{key}':\n{text}");
+    }
+    let rays = d.join("rays.bin");
+    std::fs::write(
+        &rays,
+        ray_bytes(&[
+            [0.0, 0.0, 5.0, 0.0, 0.0, -1.0, 0.0, f32::INFINITY], // hits triangle 0 at t = 5
+            [0.0, 0.0, 5.0, 0.0, 0.0, -1.0, 5.5, f32::INFINITY], // skips it: triangle 1 at t = 6
+            [5.0, 5.0, 5.0, 0.0, 0.0, -1.0, 0.0, f32::INFINITY], // misses
+            [f32::NAN, 0.0, 5.0, 0.0, 0.0, -1.0, 0.0, f32::INFINITY], // NaN: a miss, no panic
+        ]),
+    )
+    .unwrap();
+    let hits = d.join("hits.bin");
+    for input in [&kdt, &mesh] {
+        let out = kdray(&[
+            "trace",
+            s(input),
+            "--rays",
+            s(&rays),
+            "--out",
+            s(&hits),
+            "--repeat",
+            "2",
+            "--threads",
+            "1",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let line = String::from_utf8_lossy(&out.stdout);
+        for key in [
+            "build_ms=",
+            "trace_ms=",
+            "mrays_s=",
+            "rays=4",
+            "hits=2",
+            "packet=1",
+            "isa=",
+        ] {
+            assert!(line.contains(key), "trace line lacks {key}: {line}");
+        }
+        let b = std::fs::read(&hits).unwrap();
+        assert_eq!(b.len(), 4 * 16);
+        let f = |i: usize| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
+        let u = |i: usize| u32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
+        assert_eq!((f(0), u(1)), (5.0, 0));
+        assert_eq!((f(4), u(5)), (6.0, 1));
+        assert_eq!((f(8), u(9)), (f32::INFINITY, u32::MAX));
+        assert_eq!((f(12), u(13)), (f32::INFINITY, u32::MAX));
+    }
+}
+
+/// Asserts exit code 1 and a message naming `path`.
+fn assert_input_error(out: &Output, path: &Path) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "stderr: {err}");
+    let name = path.file_name().unwrap().to_str().unwrap();
+    assert!(err.contains(name), "message does not name {name}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn bad_inputs_exit_1_and_name_the_file() {
+    let d = dir("bad");
+    let kdt = d.join("out.kdt");
+    let cases: Vec<(&str, Vec<u8>)> = vec![
+        ("truncated.tri", vec![5, 0, 0, 0, 1, 2, 3]),
+        ("empty.tri", 0u32.to_le_bytes().to_vec()),
+        (
+            "nan.obj",
+            b"v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n".to_vec(),
+        ),
+        (
+            "range.obj",
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n".to_vec(),
+        ),
+        (
+            "broken.ply",
+            b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n".to_vec(),
+        ),
+        ("bad.toml", b"[camera\nkind = 1".to_vec()),
+        ("unknown.xyz", b"hello".to_vec()),
+    ];
+    for (name, bytes) in cases {
+        let p = d.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        assert_input_error(&kdray(&["build", s(&p), "-o", s(&kdt)]), &p);
+    }
+    let missing = d.join("missing.ply");
+    assert_input_error(&kdray(&["build", s(&missing), "-o", s(&kdt)]), &missing);
+    // A corrupt .kdt and a rays file that is not a whole number of rays.
+    let bad_kdt = d.join("bad.kdt");
+    std::fs::write(&bad_kdt, [0u8; 200]).unwrap();
+    assert_input_error(&kdray(&["info", s(&bad_kdt)]), &bad_kdt);
+    let mesh = d.join("ok.tri");
+    tri_file(&mesh, &[[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]]);
+    let rays = d.join("short.bin");
+    std::fs::write(&rays, [0u8; 33]).unwrap();
+    let hits = d.join("hits.bin");
+    assert_input_error(
+        &kdray(&["trace", s(&mesh), "--rays", s(&rays), "--out", s(&hits)]),
+        &rays,
+    );
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    assert_eq!(kdray(&[]).status.code(), Some(2));
+    assert_eq!(kdray(&["build"]).status.code(), Some(2));
+    assert_eq!(
+        kdray(&[
+            "trace", "x.tri", "--rays", "r", "--out", "h", "--packet", "3"
+        ])
+        .status
+        .code(),
+        Some(2)
+    );
+    assert_eq!(
+        kdray(&[
+            "trace", "x.tri", "--rays", "r", "--out", "h", "--repeat", "0"
+        ])
+        .status
+        .code(),
+        Some(2)
+    );
+}
