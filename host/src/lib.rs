@@ -5,6 +5,8 @@
 
 pub mod error;
 pub mod geometry;
+pub mod load;
+pub mod scene;
 
 pub use error::{Error, Result};
 pub use geometry::Geometry;

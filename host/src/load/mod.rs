@@ -1,0 +1,178 @@
+//! Mesh loaders: PLY (ASCII or binary, optionally gzipped), Wavefront OBJ and the raw `.tri`
+//! triangle soup of DESIGN.md, each turned into a [`Geometry`] of triangles in input order.
+//!
+//! Every loader refuses, with an [`Error`] naming the file (and the line, for text formats where
+//! it can be known), rather than panicking: unreadable or truncated files, indices out of range,
+//! faces with fewer than three vertices, non-finite coordinates, and meshes without a single
+//! triangle. Polygons with more than three vertices are fan-triangulated,
+//! `(v0, v1, v2), (v0, v2, v3), …`, so a mesh's triangle order follows its face order.
+//!
+//! Per-vertex normals and texture coordinates are kept when the whole mesh has them and dropped
+//! otherwise (the [`Geometry`] holds them for all triangles or for none).
+
+mod obj;
+mod ply;
+mod tri;
+
+pub use tri::{decode_tri, encode_tri};
+
+use crate::error::{Error, Result};
+use crate::geometry::Geometry;
+use std::path::Path;
+
+/// The mesh formats [`load_mesh`] understands, chosen by file name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshFormat {
+    /// `.ply`
+    Ply,
+    /// `.ply.gz`: a gzip-compressed PLY file.
+    PlyGz,
+    /// `.obj`
+    Obj,
+    /// `.tri`: little-endian `u32 n`, then `n × 9 f32`.
+    Tri,
+}
+
+impl MeshFormat {
+    /// The format named by `path`'s extension (case-insensitive), if any.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+        if name.ends_with(".ply.gz") {
+            Some(Self::PlyGz)
+        } else if name.ends_with(".ply") {
+            Some(Self::Ply)
+        } else if name.ends_with(".obj") {
+            Some(Self::Obj)
+        } else if name.ends_with(".tri") {
+            Some(Self::Tri)
+        } else {
+            None
+        }
+    }
+}
+
+/// Loads the mesh at `path`, choosing the format by its extension: `.ply`, `.ply.gz`, `.obj` or
+/// `.tri`. Materials are left empty (all 0) and there are no spheres.
+///
+/// # Errors
+/// An unknown extension, an I/O failure, or any malformed content (see the module doc); the
+/// error names `path` and, for ASCII PLY and OBJ, the line where that is known.
+pub fn load_mesh(path: &Path) -> Result<Geometry> {
+    let geometry = match MeshFormat::from_path(path) {
+        Some(MeshFormat::Ply) => ply::load(path, false)?,
+        Some(MeshFormat::PlyGz) => ply::load(path, true)?,
+        Some(MeshFormat::Obj) => obj::load(path)?,
+        Some(MeshFormat::Tri) => tri::load(path)?,
+        None => {
+            return Err(Error::new(
+                path,
+                "unknown mesh format: expected a .ply, .ply.gz, .obj or .tri file",
+            ));
+        }
+    };
+    check_geometry(path, &geometry)?;
+    Ok(geometry)
+}
+
+/// Loads any input the `kdray build` and `trace` commands accept: a mesh (see [`load_mesh`]) or a
+/// `.toml` scene file, whose meshes, inline triangles and spheres are assembled by
+/// [`crate::scene::SceneFile::geometry`].
+///
+/// # Errors
+/// As [`load_mesh`] and [`crate::scene::load_scene`].
+pub fn load_input(path: &Path) -> Result<Geometry> {
+    let is_toml = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if is_toml {
+        crate::scene::load_scene(path)?.geometry()
+    } else {
+        load_mesh(path)
+    }
+}
+
+/// The checks every loader's result must pass: at least one triangle, finite vertices, and
+/// attribute lists as long as the triangle list. Loaders report a finer location first (the
+/// vertex or its line); this is the net under all of them.
+pub(crate) fn check_geometry(path: &Path, g: &Geometry) -> Result<()> {
+    if g.triangles.is_empty() {
+        return Err(Error::new(path, "the mesh has no triangles"));
+    }
+    if let Some(i) = g
+        .triangles
+        .iter()
+        .position(|t| !t.iter().all(|v| v.is_finite()))
+    {
+        return Err(Error::new(
+            path,
+            format!("triangle {i} has a non-finite vertex"),
+        ));
+    }
+    let n = g.triangles.len();
+    let same = |len: Option<usize>| len.is_none_or(|len| len == n);
+    if !same(g.normals.as_ref().map(Vec::len)) || !same(g.uvs.as_ref().map(Vec::len)) {
+        return Err(Error::new(
+            path,
+            "internal: attribute count differs from triangle count",
+        ));
+    }
+    Ok(())
+}
+
+/// Fan-triangulates a polygon given as vertex indices: `(c0, c1, c2), (c0, c2, c3), …`.
+pub(crate) fn fan(corners: &[u32]) -> impl Iterator<Item = [u32; 3]> + '_ {
+    let first = corners.first().copied().unwrap_or(0);
+    corners.windows(2).skip(1).map(move |w| [first, w[0], w[1]])
+}
+
+/// The 1-based line of byte `offset` in `text` (offsets past the end give the last line).
+pub(crate) fn line_of_offset(text: &[u8], offset: usize) -> usize {
+    let end = offset.min(text.len());
+    1 + text[..end].iter().filter(|&&b| b == b'\n').count()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_by_extension() {
+        let f = |s: &str| MeshFormat::from_path(Path::new(s));
+        assert_eq!(f("a/b.PLY"), Some(MeshFormat::Ply));
+        assert_eq!(f("b.ply.gz"), Some(MeshFormat::PlyGz));
+        assert_eq!(f("b.obj"), Some(MeshFormat::Obj));
+        assert_eq!(f("b.tri"), Some(MeshFormat::Tri));
+        assert_eq!(f("b.gz"), None);
+        assert_eq!(f("b.stl"), None);
+        assert_eq!(f(""), None);
+    }
+
+    #[test]
+    fn unknown_extension_is_an_error_naming_the_file() {
+        let err = load_mesh(Path::new("some/mesh.stl")).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.contains("mesh.stl") && text.contains("unknown mesh format"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn fan_order() {
+        let tris: Vec<_> = fan(&[4, 5, 6, 7, 8]).collect();
+        assert_eq!(tris, vec![[4, 5, 6], [4, 6, 7], [4, 7, 8]]);
+        assert_eq!(fan(&[1, 2, 3]).collect::<Vec<_>>(), vec![[1, 2, 3]]);
+        assert_eq!(fan(&[1, 2]).count(), 0);
+        assert_eq!(fan(&[]).count(), 0);
+    }
+
+    #[test]
+    fn lines_of_offsets() {
+        let t = b"a\nbc\n\nd";
+        assert_eq!(line_of_offset(t, 0), 1);
+        assert_eq!(line_of_offset(t, 2), 2);
+        assert_eq!(line_of_offset(t, 5), 3);
+        assert_eq!(line_of_offset(t, 6), 4);
+        assert_eq!(line_of_offset(t, 100), 4);
+    }
+}
