@@ -311,7 +311,7 @@ impl<'a> Scene<'a> {
                 .checked_mul(spec.stride)
                 .ok_or(FormatError::CountOverflow)?;
             let end = offset.checked_add(len).ok_or(FormatError::CountOverflow)?;
-            if offset < HEADER_WORDS || offset % SECTION_ALIGN != 0 || end > words.len() {
+            if offset < HEADER_WORDS || !offset.is_multiple_of(SECTION_ALIGN) || end > words.len() {
                 return Err(FormatError::SectionOutOfBounds);
             }
             *range = (offset, end);

@@ -51,12 +51,14 @@ impl Contents for Mixed {
 /// The parametric interval `(t0, t1)` in which `ray` is inside the box, clipped to the ray's own
 /// range, or `None`.
 #[inline]
+#[allow(clippy::needless_range_loop)]
 pub fn clip_to_box(ray: &Ray, bounds: [Vec3; 2]) -> Option<(f32, f32)> {
     let mut t0 = ray.tmin;
     let mut t1 = ray.tmax;
     for axis in 0..3 {
         let (o, d) = (ray.origin[axis], ray.dir[axis]);
         let (lo, hi) = (bounds[0][axis], bounds[1][axis]);
+        // (indexing three Vec3s by axis reads better than zipping their arrays)
         if d == 0.0 {
             if o < lo || o > hi {
                 return None;

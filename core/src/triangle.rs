@@ -80,7 +80,7 @@ impl Triangle {
         let inv = 1.0 / det;
         let s = ray.origin - self.v0;
         let a = s.dot(p) * inv;
-        if !(a >= 0.0 && a <= 1.0) {
+        if !(0.0..=1.0).contains(&a) {
             return None;
         }
         let q = s.cross(self.e1);

@@ -184,7 +184,7 @@ pub fn write_kdt(path: &Path, words: &[u32]) -> Result<()> {
 /// Reads a `.kdt` file into words and validates it.
 pub fn read_kdt(path: &Path) -> Result<Vec<u32>> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    if bytes.len() % 4 != 0 {
+    if !bytes.len().is_multiple_of(4) {
         return Err(Error::new(
             path,
             format!(

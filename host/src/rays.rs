@@ -21,7 +21,7 @@ pub const HIT_BYTES: usize = 16;
 /// A length that is not a whole number of records. Non-finite values are kept: traversal reports
 /// such rays as misses.
 pub fn decode_rays(path: &Path, bytes: &[u8]) -> Result<Vec<Ray>> {
-    if bytes.len() % RAY_BYTES != 0 {
+    if !bytes.len().is_multiple_of(RAY_BYTES) {
         return Err(Error::new(
             path,
             format!(
@@ -78,7 +78,7 @@ pub fn encode_hits(hits: &[Hit]) -> Vec<u8> {
 
 /// Decodes a hits file.
 pub fn decode_hits(path: &Path, bytes: &[u8]) -> Result<Vec<Hit>> {
-    if bytes.len() % HIT_BYTES != 0 {
+    if !bytes.len().is_multiple_of(HIT_BYTES) {
         return Err(Error::new(
             path,
             format!(

@@ -88,10 +88,10 @@ fn params() -> impl Strategy<Value = BuildParams> {
 fn brute_force(scene: &Scene, ray: &Ray) -> Hit {
     let mut best = Hit::MISS;
     for prim in 0..scene.prim_count() {
-        if let Some((t, u, v)) = scene.intersect_prim::<Mixed>(prim, ray) {
-            if t < best.t {
-                best = Hit { t, prim, u, v };
-            }
+        if let Some((t, u, v)) = scene.intersect_prim::<Mixed>(prim, ray)
+            && t < best.t
+        {
+            best = Hit { t, prim, u, v };
         }
     }
     best

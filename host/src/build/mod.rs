@@ -13,9 +13,9 @@ pub mod events;
 
 use crate::geometry::Geometry;
 use clip::Aabb;
+use core::sync::atomic::{AtomicU64, Ordering};
 use events::{Costs, Event, Split};
 use glam::Vec3;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Builder parameters. The defaults are pbrt-v3's, except where measurement chose otherwise
 /// (see `docs/BUILD.md`).

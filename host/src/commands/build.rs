@@ -1,12 +1,12 @@
 //! `kdray build` and `kdray info`.
 
+use core::sync::atomic::{AtomicU64, Ordering};
 use indicatif::{ProgressBar, ProgressStyle};
 use kdray::build::{BuildParams, PROGRESS_TOTAL};
 use kdray::error::{Error, Result};
 use kdray::{Geometry, flat, load};
 use kdray_core::Scene;
 use std::path::Path;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// Builder settings shared by `build` and `trace`.
