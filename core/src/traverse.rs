@@ -2,8 +2,13 @@
 //! `KdTreeAccel::Intersect` (PBR 3rd ed., §4.4.3), with the cases it leaves to chance made exact.
 //!
 //! Deviations from pbrt-v3, each for a case it gets wrong or leaves undefined:
-//! - a direction component of `±0` never computes `0 · ∞`: a ray parallel to a split plane visits
-//!   only the side holding its origin, or both sides when the origin lies on the plane;
+//! - near and far children follow the sign of the direction, not the side of the origin, and the
+//!   split interval is clipped on both ends, so rays with `tmin < 0` are traced correctly (pbrt-v3
+//!   assumes `tmin = 0` in its `tPlane <= 0` test); this is also exactly the rule of the packet
+//!   traversal, so the two visit the same leaves;
+//! - a direction component of `±0` gives `t_plane = ±∞`, so a ray parallel to a split plane
+//!   visits only the side holding its origin, or, when the origin lies on the plane (`0 · ∞ =
+//!   NaN`), both sides;
 //! - the root box is entered with an explicit per-axis test for zero components and a far distance
 //!   widened by `1 + 2γ₃` (pbrt-v3's robust `Bounds3::IntersectP`), so a ray grazing the box is
 //!   not lost to rounding;
@@ -185,32 +190,34 @@ impl Scene<'_> {
                 continue;
             }
             let axis = node.axis();
-            let split = node.split();
-            let (o, d) = (ray.origin[axis], ray.dir[axis]);
-            let below_first = o < split || (o == split && d <= 0.0);
-            let (first, second) = if below_first {
-                (index + 1, node.above_child())
-            } else {
+            let t_plane = (node.split() - ray.origin[axis]) * inv_dir[axis];
+            // Near and far by the direction's sign (the sign of 1/d, so −0 counts as negative):
+            // for d > 0 the below child holds the ray for t < t_plane. A NaN t_plane (origin on
+            // the plane, direction parallel to it) visits both children with the same interval.
+            let (near, far) = if inv_dir[axis] < 0.0 {
                 (node.above_child(), index + 1)
-            };
-            // Validation bounds the tree's depth by MAX_DEPTH, and at most one item per level is
-            // pending, so these pushes cannot fail.
-            if d == 0.0 {
-                if o == split {
-                    let _ = stack.push((second, tmin, tmax));
-                }
-                index = first;
-                continue;
-            }
-            let t_plane = (split - o) * inv_dir[axis];
-            if t_plane > tmax || t_plane <= 0.0 {
-                index = first;
-            } else if t_plane < tmin {
-                index = second;
             } else {
-                let _ = stack.push((second, t_plane, tmax));
-                index = first;
-                tmax = t_plane;
+                (index + 1, node.above_child())
+            };
+            let visit_near = !(t_plane < tmin);
+            let visit_far = !(t_plane > tmax);
+            // Validation bounds the tree's depth by MAX_DEPTH, and at most one item per level is
+            // pending, so the push cannot fail.
+            match (visit_near, visit_far) {
+                (true, true) => {
+                    let _ = stack.push((far, tmin.max(t_plane), tmax));
+                    tmax = tmax.min(t_plane);
+                    index = near;
+                }
+                (true, false) => index = near,
+                (false, true) => {
+                    tmin = tmin.max(t_plane);
+                    index = far;
+                }
+                (false, false) => match stack.pop() {
+                    Some((next, a, b)) => (index, tmin, tmax) = (next, a, b),
+                    None => return,
+                },
             }
         }
     }

@@ -57,7 +57,7 @@ fn ray() -> impl Strategy<Value = Ray> {
     ];
     let range = prop_oneof![
         3 => Just((0.0f32, f32::INFINITY)),
-        1 => (0.0f32..2.0, 0.5f32..6.0).prop_map(|(a, b)| (a, a + b)),
+        1 => (-2.0f32..2.0, 0.5f32..6.0).prop_map(|(a, b)| (a, a + b)),
     ];
     (origin, direction(), range).prop_map(|(o, d, (t0, t1))| Ray::new(o, d).with_range(t0, t1))
 }
