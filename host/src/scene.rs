@@ -347,46 +347,44 @@ impl SceneFile {
         if !r.background.iter().all(|c| c.is_finite() && *c >= 0.0) {
             return Err(at_render("background must be finite and non-negative"));
         }
+        self.check_materials()?;
+        self.check_entries()
+    }
+
+    fn check_materials(&self) -> Result<()> {
         for (i, m) in self.materials.iter().enumerate() {
-            let at = |msg: String| {
-                self.error(
-                    self.lines.material.get(i).copied(),
-                    format!("material `{}`: {msg}", m.name),
-                )
+            let line = self.lines.material.get(i).copied();
+            let problem = if self.materials[..i].iter().any(|n| n.name == m.name) {
+                "the name is used twice".to_string()
+            } else if !m.albedo.iter().all(|c| (0.0..=1.0).contains(c)) {
+                format!("albedo {:?} must lie in [0, 1]", m.albedo)
+            } else if !m.emission.iter().all(|c| c.is_finite() && *c >= 0.0) {
+                format!("emission {:?} must be finite and >= 0", m.emission)
+            } else if !(m.ior.is_finite() && m.ior > 0.0) {
+                format!("ior {} must be finite and > 0", m.ior)
+            } else {
+                continue;
             };
-            if self.materials[..i].iter().any(|n| n.name == m.name) {
-                return Err(at("the name is used twice".into()));
-            }
-            if !m.albedo.iter().all(|c| (0.0..=1.0).contains(c)) {
-                return Err(at(format!("albedo {:?} must lie in [0, 1]", m.albedo)));
-            }
-            if !m.emission.iter().all(|c| c.is_finite() && *c >= 0.0) {
-                return Err(at(format!(
-                    "emission {:?} must be finite and >= 0",
-                    m.emission
-                )));
-            }
-            if !(m.ior.is_finite() && m.ior > 0.0) {
-                return Err(at(format!("ior {} must be finite and > 0", m.ior)));
-            }
+            return Err(self.error(line, format!("material `{}`: {problem}", m.name)));
         }
-        let material = |name: &Option<String>, line: Option<usize>, what: &str| match self
-            .material_index(name.as_deref())
-        {
-            Some(_) => Ok(()),
-            None => Err(self.error(
-                line,
-                format!(
-                    "{what}: unknown material `{}`",
-                    name.as_deref().unwrap_or("")
-                ),
-            )),
+        Ok(())
+    }
+
+    /// Meshes, triangles and spheres: materials resolve, numbers are finite and in range.
+    fn check_entries(&self) -> Result<()> {
+        let material = |name: &Option<String>, line: Option<usize>, what: &str| {
+            if self.material_index(name.as_deref()).is_some() {
+                return Ok(());
+            }
+            let name = name.as_deref().unwrap_or("");
+            Err(self.error(line, format!("{what}: unknown material `{name}`")))
         };
-        let finite =
-            |v: &[f32], line: Option<usize>, what: &str| match v.iter().all(|x| x.is_finite()) {
-                true => Ok(()),
-                false => Err(self.error(line, format!("{what}: coordinates must be finite"))),
-            };
+        let finite = |v: &[f32], line: Option<usize>, what: &str| {
+            if v.iter().all(|x| x.is_finite()) {
+                return Ok(());
+            }
+            Err(self.error(line, format!("{what}: coordinates must be finite")))
+        };
         for (i, m) in self.meshes.iter().enumerate() {
             let line = self.lines.mesh.get(i).copied();
             let what = format!("mesh `{}`", m.path.display());

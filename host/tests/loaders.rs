@@ -95,6 +95,29 @@ fn ascii_ply_quad_is_fan_triangulated_with_normals_and_uvs() {
 }
 
 #[test]
+fn ply_variants_load_alike() {
+    let plain = TempFile::new("mesh.ply", ASCII_PLY.as_bytes());
+    let want = load_mesh(plain.path()).unwrap();
+    let variants = [
+        ASCII_PLY.replace(
+            "list uchar int vertex_indices",
+            "list uchar ushort vertex_index",
+        ),
+        ASCII_PLY.replace("list uchar int", "list int uchar"),
+        ASCII_PLY.replace('\n', "\r\n"),
+        ASCII_PLY.replace(
+            "property float u\nproperty float v",
+            "property float s\nproperty float t",
+        ),
+        ASCII_PLY.replace("property float x", "property double x"),
+    ];
+    for text in &variants {
+        let file = TempFile::new("variant.ply", text.as_bytes());
+        assert_eq!(load_mesh(file.path()).unwrap(), want, "{text}");
+    }
+}
+
+#[test]
 fn gzipped_ply_loads_like_the_plain_file() {
     let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
     enc.write_all(ASCII_PLY.as_bytes()).unwrap();
