@@ -15,12 +15,20 @@ pub struct Error {
 impl Error {
     /// A problem with `path` as a whole.
     pub fn new(path: impl AsRef<Path>, message: impl Into<String>) -> Self {
-        Self { path: path.as_ref().to_path_buf(), line: None, message: message.into() }
+        Self {
+            path: path.as_ref().to_path_buf(),
+            line: None,
+            message: message.into(),
+        }
     }
 
     /// A problem at `line` (1-based) of the text file `path`.
     pub fn at_line(path: impl AsRef<Path>, line: usize, message: impl Into<String>) -> Self {
-        Self { path: path.as_ref().to_path_buf(), line: Some(line), message: message.into() }
+        Self {
+            path: path.as_ref().to_path_buf(),
+            line: Some(line),
+            message: message.into(),
+        }
     }
 
     /// An I/O failure on `path`.
