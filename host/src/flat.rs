@@ -210,6 +210,8 @@ pub struct TreeStats {
     pub empty_leaves: u32,
     /// Primitive references in non-empty leaves divided by their number.
     pub mean_prims_per_leaf: f64,
+    /// The most primitives in one leaf.
+    pub max_prims_per_leaf: u32,
     pub depth: u32,
     /// Expected cost of a random ray through the root box, in the given cost units.
     pub sah_cost: f64,
@@ -227,6 +229,7 @@ pub fn stats(scene: &Scene, words: usize, params: &BuildParams) -> TreeStats {
         leaves: 0,
         empty_leaves: 0,
         mean_prims_per_leaf: 0.0,
+        max_prims_per_leaf: 0,
         depth: scene.depth(),
         sah_cost: 0.0,
         bytes: words * 4,
@@ -248,6 +251,7 @@ pub fn stats(scene: &Scene, words: usize, params: &BuildParams) -> TreeStats {
                 s.empty_leaves += 1;
             }
             refs += n as u64;
+            s.max_prims_per_leaf = s.max_prims_per_leaf.max(n);
             s.sah_cost += params.intersect_cost * n as f64 * p;
         } else {
             s.sah_cost += params.traversal_cost * p;

@@ -131,6 +131,7 @@ pub fn info(file: &Path) -> Result<()> {
         "prims per leaf  {:.3} (mean over non-empty leaves)",
         s.mean_prims_per_leaf
     );
+    println!("max prims/leaf  {}", s.max_prims_per_leaf);
     println!("depth           {}", s.depth);
     println!(
         "sah cost        {:.3} (traversal 1, intersection 80)",
