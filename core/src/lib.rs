@@ -23,6 +23,8 @@
 //! - [`camera`]: pinhole, the seed's fisheye and parallel cameras.
 //! - [`format`], [`node`]: the flat scene format and its validation.
 //! - [`traverse`]: scalar closest-hit and any-hit traversal.
+//! - [`simd`]: 4- and 8-wide ray packets, the lane trait they are generic over, and the packet
+//!   kernels, which match the scalar ones lane by lane.
 //!
 //! The seed document is `shared/seed/ray-tracing-equations.txt`; equation numbers in the docs
 //! refer to it, with the corrections of its `NOTES.md`.
@@ -37,6 +39,7 @@ pub mod node;
 pub mod optics;
 pub mod ray;
 pub mod sampling;
+pub mod simd;
 pub mod sphere;
 pub mod traverse;
 pub mod triangle;

@@ -1,0 +1,150 @@
+//! Packet kernels: one primitive against the `W` rays of a [`RayPacket`], and the closest-hit
+//! update.
+//!
+//! Each kernel is its scalar twin ([`Triangle::intersect`], [`Sphere::intersect`]) transcribed
+//! lane by lane: the same operations in the same order, no FMA, branches turned into masks. Since
+//! every lane operation rounds as the scalar one does (see [`lanes`](super::lanes)), a lane hits
+//! exactly when the scalar kernel hits that ray, with bit-identical `t`, `α`, `β` — the tests in
+//! `tests/tests/simd_kernels.rs` check this over edge values and random inputs.
+//!
+//! A kernel computes every lane, active or not, and its mask is *not* restricted to the packet's
+//! active lanes: [`record_closest`] does that. (An absent lane can never hit anyway; see
+//! [`RayPacket::from_rays`].)
+
+use super::lanes::{Lanes, Vec3x};
+use super::packet::{HitPacket, RayPacket};
+use crate::sphere::Sphere;
+use crate::triangle::{PARALLEL_SIN, Triangle};
+
+/// What one primitive does to a packet: the mask of lanes it hits in `(tmin, tmax)`, and there
+/// the hit's `t` and barycentrics `u`, `v` (0 for a sphere). Lanes outside `mask` hold garbage.
+#[derive(Clone, Copy, Debug)]
+pub struct PrimHits<L> {
+    pub mask: L,
+    pub t: L,
+    pub u: L,
+    pub v: L,
+}
+
+impl<L: Lanes> PrimHits<L> {
+    /// No lane hit.
+    #[inline]
+    fn none() -> Self {
+        let zero = L::splat(0.0);
+        Self {
+            mask: zero,
+            t: zero,
+            u: zero,
+            v: zero,
+        }
+    }
+}
+
+/// Möller–Trumbore (Möller & Trumbore 1997, as in [`crate::triangle`]) for one triangle against
+/// every lane: the lanes where [`Triangle::intersect`] would return `Some((t, α, β))` for the
+/// lane's ray (with its current `tmax`), and those values.
+///
+/// The triangle's `|e1 × e2|²` is computed once, as a scalar, exactly as the scalar kernel does;
+/// a degenerate triangle (`n·n == 0`) or a NaN one returns at once with no lane hit. The lane
+/// tests then follow the scalar's: `det² > PARALLEL_SIN²·n·n` (NaN counts as parallel),
+/// `0 ≤ α ≤ 1`, `β ≥ 0 ∧ α + β ≤ 1`, `tmin < t < tmax`, every one false on NaN. Differs from the
+/// scalar only in that the early exits are per packet: a test is skipped once no lane survives.
+#[inline]
+pub fn intersect_triangle<L: Lanes>(tri: &Triangle, rays: &RayPacket<L>) -> PrimHits<L> {
+    let n2 = tri.geometric_normal().length_squared();
+    // A NaN triangle would fail the `det²` test in every lane: skip it too.
+    if n2 == 0.0 || n2.is_nan() {
+        return PrimHits::none();
+    }
+    let min_det2 = L::splat(PARALLEL_SIN * PARALLEL_SIN * n2);
+    let (e1, e2) = (Vec3x::splat(tri.e1), Vec3x::splat(tri.e2));
+
+    let p = rays.dir.cross(e2);
+    let det = e1.dot(p);
+    let mut mask = (det * det).gt(min_det2);
+    if mask.none() {
+        return PrimHits::none();
+    }
+    let inv = det.recip();
+    let s = rays.origin - Vec3x::splat(tri.v0);
+    let a = s.dot(p) * inv;
+    let one = L::splat(1.0);
+    let zero = L::splat(0.0);
+    mask = mask & a.ge(zero) & a.le(one);
+    if mask.none() {
+        return PrimHits::none();
+    }
+    let q = s.cross(e1);
+    let b = rays.dir.dot(q) * inv;
+    mask = mask & b.ge(zero) & (a + b).le(one);
+    let t = e2.dot(q) * inv;
+    mask = mask & t.gt(rays.tmin) & t.lt(rays.tmax);
+    PrimHits {
+        mask,
+        t,
+        u: a,
+        v: b,
+    }
+}
+
+/// One sphere against every lane: the lanes where [`Sphere::intersect`] would return `Some(t)` for
+/// the lane's ray (with its current `tmax`), and that `t`; `u = v = 0`.
+///
+/// The same cancellation-free roots as [`Sphere::roots`] (Haines et al., Ray Tracing Gems ch. 7),
+/// operation for operation: `disc = R² − |f − b·d|²`, `q = −b − sign(b)·√disc` with `sign(±0) =
+/// ±1`, `t0 = cq / q` (0 where `q = 0`), near/far ordered by `t0 <= q`; then the near root if it
+/// lies in `(tmin, tmax)`, else the far one.
+#[inline]
+pub fn intersect_sphere<L: Lanes>(sphere: &Sphere, rays: &RayPacket<L>) -> PrimHits<L> {
+    let zero = L::splat(0.0);
+    let f = rays.origin - Vec3x::splat(sphere.center);
+    let b = f.dot(rays.dir);
+    let r2 = L::splat(sphere.radius * sphere.radius);
+    let perp = f - rays.dir.scale(b);
+    let disc = r2 - perp.dot(perp);
+    let real = disc.ge(zero);
+    if real.none() {
+        return PrimHits::none();
+    }
+    // `math::sign_not_zero`: 1.0 with the sign bit of b.
+    let sign_b = (b & L::splat(-0.0)) | L::splat(1.0);
+    let q = -b - sign_b * disc.sqrt();
+    let cq = f.dot(f) - r2;
+    let t0 = q.ne(zero).select(cq / q, zero);
+    let t0_first = t0.le(q);
+    let near = t0_first.select(t0, q);
+    let far = t0_first.select(q, t0);
+    let near_in = near.gt(rays.tmin) & near.lt(rays.tmax);
+    let far_in = far.gt(rays.tmin) & far.lt(rays.tmax);
+    PrimHits {
+        mask: real & (near_in | far_in),
+        t: near_in.select(near, far),
+        u: zero,
+        v: zero,
+    }
+}
+
+/// The closest-hit update: in each lane that `found` hits and `rays` has active, records
+/// primitive `prim` (its `t`, `u`, `v`) in `hits` and shrinks `rays.tmax` to `t`, so a later
+/// primitive must be strictly nearer to replace it. Returns the bitmask of the lanes updated.
+///
+/// Applied to the primitives in order, this gives each active lane what scalar closest-hit
+/// traversal would give its ray: the first of the nearest hits.
+#[inline]
+pub fn record_closest<L: Lanes>(
+    hits: &mut HitPacket<L>,
+    rays: &mut RayPacket<L>,
+    found: &PrimHits<L>,
+    prim: u32,
+) -> u32 {
+    let m = found.mask & rays.active;
+    let bits = m.bitmask();
+    if bits != 0 {
+        hits.t = m.select(found.t, hits.t);
+        hits.prim = m.select_index(L::splat_index(prim), hits.prim);
+        hits.u = m.select(found.u, hits.u);
+        hits.v = m.select(found.v, hits.v);
+        rays.tmax = m.select(found.t, rays.tmax);
+    }
+    bits
+}
