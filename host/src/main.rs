@@ -37,7 +37,7 @@ enum Command {
         rays: PathBuf,
         #[arg(long)]
         out: PathBuf,
-        /// Rays per packet: 1 (single rays).
+        /// Rays per packet: 1 (single rays), or 4 or 8 consecutive rays traced together.
         #[arg(long, default_value_t = 1, value_parser = commands::parse_packet)]
         packet: u32,
         /// Worker threads (default: all cores).

@@ -29,6 +29,7 @@
 pub mod kernels;
 pub mod lanes;
 pub mod packet;
+pub mod traverse;
 
 pub use kernels::{PrimHits, intersect_sphere, intersect_triangle, record_closest};
 pub use lanes::{Lanes, Vec3x};

@@ -3,6 +3,7 @@
 use super::build::{BuildArgs, load_scene_words};
 use kdray::error::{Error, Result};
 use kdray::rays;
+use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -21,14 +22,27 @@ pub struct TraceArgs {
 /// Rays per parallel work item: large enough to amortize scheduling, small enough to balance.
 const CHUNK: usize = 4096;
 
-fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
+/// Traces `rays` into `hits` (same length, pre-filled with misses): single rays, or packets of
+/// `packet` consecutive rays.
+fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], packet: u32) {
     hits.par_chunks_mut(CHUNK)
         .zip(rays.par_chunks(CHUNK))
-        .for_each(|(h, r)| {
-            for (hit, ray) in h.iter_mut().zip(r) {
-                *hit = scene.intersect(ray);
+        .for_each(|(h, r)| match packet {
+            4 => trace_packets::<f32x4>(scene, r, h),
+            8 => trace_packets::<f32x8>(scene, r, h),
+            _ => {
+                for (hit, ray) in h.iter_mut().zip(r) {
+                    *hit = scene.intersect(ray);
+                }
             }
         });
+}
+
+fn trace_packets<L: Lanes>(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
+    for (r, h) in rays.chunks(L::WIDTH).zip(hits.chunks_mut(L::WIDTH)) {
+        let packet = RayPacket::<L>::from_rays(r);
+        scene.intersect_packet(&packet).write_active(&packet, h);
+    }
 }
 
 fn pool(path: &Path, threads: Option<usize>) -> Result<rayon::ThreadPool> {
@@ -52,7 +66,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
     let mut best = f64::INFINITY;
     for _ in 0..args.repeat {
         let start = Instant::now();
-        pool.install(|| trace_all(&scene, &rays, &mut hits));
+        pool.install(|| trace_all(&scene, &rays, &mut hits, args.packet));
         best = best.min(start.elapsed().as_secs_f64());
     }
     std::fs::write(&args.out, rays::encode_hits(&hits)).map_err(|e| Error::io(&args.out, e))?;
@@ -86,7 +100,9 @@ pub enum RayKind {
 pub fn parse_packet(s: &str) -> core::result::Result<u32, String> {
     match s {
         "1" => Ok(1),
-        _ => Err(format!("packet width must be 1, got '{s}'")),
+        "4" => Ok(4),
+        "8" => Ok(8),
+        _ => Err(format!("packet width must be 1, 4 or 8, got '{s}'")),
     }
 }
 
@@ -118,7 +134,7 @@ pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64
         RayKind::Primary => primary,
         RayKind::Diffuse => {
             let mut hits = vec![Hit::MISS; primary.len()];
-            trace_all(&scene, &primary, &mut hits);
+            trace_all(&scene, &primary, &mut hits, 8);
             rays::diffuse_rays(&scene, &primary, &hits, seed)
         }
     };

@@ -1,0 +1,73 @@
+//! Traversal throughput on the benchmark protocol's rays (DESIGN.md): the dragon and the bunny
+//! (`scripts/fetch-meshes.sh` puts them in `data/`), primary and diffuse rays, one thread,
+//! kdray scalar / 4-wide / 8-wide next to the `bvh` crate and, with `--features embree`,
+//! Embree's `rtcIntersect1` and `rtcIntersect8` on the same rays in the same run.
+//!
+//! Meshes that are missing are skipped with a note. `KDRAY_BENCH_SIZE=WxH` shrinks the image
+//! (default 1024x1024) for a quick run.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use kdray_benches::peer_bvh::BvhPeer;
+use kdray_benches::setup::{Workload, trace_packets, trace_scalar};
+use kdray_core::simd::{f32x4, f32x8};
+use kdray_core::{Hit, Ray};
+use std::path::Path;
+
+fn size() -> (u32, u32) {
+    std::env::var("KDRAY_BENCH_SIZE")
+        .ok()
+        .and_then(|s| {
+            let (w, h) = s.split_once('x')?;
+            Some((w.parse().ok()?, h.parse().ok()?))
+        })
+        .unwrap_or((1024, 1024))
+}
+
+fn traversal(c: &mut Criterion) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data");
+    let (w, h) = size();
+    for mesh in ["dragon", "bunny"] {
+        let path = root.join(format!("{mesh}.ply"));
+        let work = match Workload::load(&path, w, h) {
+            Ok(work) => work,
+            Err(e) => {
+                eprintln!("skipping {mesh}: {e} (run scripts/fetch-meshes.sh)");
+                continue;
+            }
+        };
+        let scene = work.scene();
+        let bvh = BvhPeer::build(&work.triangles);
+        #[cfg(feature = "embree")]
+        let device = kdray_benches::peer_embree::EmbreeDevice::new().expect("embree device");
+        #[cfg(feature = "embree")]
+        let embree = device.build(&work.triangles).expect("embree build");
+        for (set, rays) in [("primary", &work.primary), ("diffuse", &work.diffuse)] {
+            let mut group =
+                c.benchmark_group(format!("{mesh}/{set}/isa={}", kdray_core::isa::name()));
+            group
+                .sample_size(10)
+                .throughput(Throughput::Elements(rays.len() as u64));
+            let mut hits = vec![Hit::MISS; rays.len()];
+            let mut bench = |name: &str, f: &mut dyn FnMut(&[Ray], &mut [Hit])| {
+                group.bench_function(name, |b| b.iter(|| f(rays, &mut hits)));
+            };
+            bench("kdray_scalar", &mut |r, h| trace_scalar(&scene, r, h));
+            bench("kdray_packet4", &mut |r, h| {
+                trace_packets::<f32x4>(&scene, r, h)
+            });
+            bench("kdray_packet8", &mut |r, h| {
+                trace_packets::<f32x8>(&scene, r, h)
+            });
+            bench("bvh_crate", &mut |r, h| bvh.trace_into(r, h));
+            #[cfg(feature = "embree")]
+            {
+                bench("embree_intersect1", &mut |r, h| embree.trace1_into(r, h));
+                bench("embree_intersect8", &mut |r, h| embree.trace8_into(r, h));
+            }
+            group.finish();
+        }
+    }
+}
+
+criterion_group!(benches, traversal);
+criterion_main!(benches);

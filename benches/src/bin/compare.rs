@@ -1,0 +1,159 @@
+//! `kdray-compare MESH [--repeat N] [--size WxH]`: the benchmark protocol's side-by-side table.
+//!
+//! Builds kdray's kd-tree, the `bvh` crate's BVH and (with the `embree` feature) Embree 3's
+//! high-quality BVH over the same mesh, each single-threaded and timed; makes the protocol's
+//! primary rays (framing pinhole, 2×4 tiles) and one cosine-weighted diffuse bounce per primary
+//! hit; traces both sets with every tracer on one thread, `--repeat` times, and prints the median
+//! Mrays/s, plus how many rays disagree with kdray's scalar traversal (a different `t`; ties at
+//! the same `t` do not count).
+
+use kdray_benches::peer_bvh::BvhPeer;
+use kdray_benches::setup::{Workload, trace_packets, trace_scalar};
+use kdray_core::simd::{f32x4, f32x8};
+use kdray_core::{Hit, Ray};
+use std::path::PathBuf;
+use std::time::Instant;
+
+struct Row {
+    name: String,
+    build_ms: Option<f64>,
+    mrays: [f64; 2],
+    mismatches: [usize; 2],
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Median Mrays/s of `trace` over `repeat` runs, and the hits of the last run.
+fn time(rays: &[Ray], repeat: usize, mut trace: impl FnMut(&[Ray], &mut [Hit])) -> (f64, Vec<Hit>) {
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let times = (0..repeat)
+        .map(|_| {
+            hits.fill(Hit::MISS);
+            let start = Instant::now();
+            trace(rays, &mut hits);
+            rays.len() as f64 / start.elapsed().as_secs_f64() / 1e6
+        })
+        .collect();
+    (median(times), hits)
+}
+
+fn mismatches(reference: &[Hit], hits: &[Hit]) -> usize {
+    let close = |a: f32, b: f32| a == b || (a - b).abs() <= 1e-4 * a.abs().max(b.abs());
+    reference
+        .iter()
+        .zip(hits)
+        .filter(|(r, h)| !close(r.t, h.t))
+        .count()
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let mut mesh: Option<PathBuf> = None;
+    let (mut repeat, mut size) = (5usize, (1024u32, 1024u32));
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--repeat" => {
+                repeat = args
+                    .next()
+                    .and_then(|v| v.parse().ok())
+                    .filter(|&n| n > 0)
+                    .unwrap_or(5)
+            }
+            "--size" => {
+                let v = args.next().unwrap_or_default();
+                let (w, h) = v.split_once('x').unwrap_or(("1024", "1024"));
+                size = (w.parse().unwrap_or(1024), h.parse().unwrap_or(1024));
+            }
+            _ => mesh = Some(PathBuf::from(a)),
+        }
+    }
+    let Some(mesh) = mesh else {
+        eprintln!("usage: kdray-compare MESH [--repeat N] [--size WxH]");
+        std::process::exit(2);
+    };
+    let work = match Workload::load(&mesh, size.0, size.1) {
+        Ok(w) => w,
+        Err(e) => {
+            eprintln!("kdray-compare: {e}");
+            std::process::exit(1);
+        }
+    };
+    let (scene, tris, kd_build) = (work.scene(), &work.triangles[..], work.build_ms);
+    let (primary, diffuse) = (&work.primary, &work.diffuse);
+    let sets = [&primary[..], &diffuse[..]];
+
+    let mut rows = Vec::new();
+    let mut reference: Vec<Vec<Hit>> = Vec::new();
+    let mut run = |name: &str, build_ms: Option<f64>, trace: &mut dyn FnMut(&[Ray], &mut [Hit])| {
+        let mut row = Row {
+            name: name.to_string(),
+            build_ms,
+            mrays: [0.0; 2],
+            mismatches: [0; 2],
+        };
+        for (k, rays) in sets.iter().enumerate() {
+            let (mrays, hits) = time(rays, repeat, &mut *trace);
+            row.mrays[k] = mrays;
+            if reference.len() <= k {
+                reference.push(hits);
+            } else {
+                row.mismatches[k] = mismatches(&reference[k], &hits);
+            }
+        }
+        rows.push(row);
+    };
+    run("kdray scalar", Some(kd_build), &mut |r, h| {
+        trace_scalar(&scene, r, h)
+    });
+    run("kdray packet 4", None, &mut |r, h| {
+        trace_packets::<f32x4>(&scene, r, h)
+    });
+    run("kdray packet 8", None, &mut |r, h| {
+        trace_packets::<f32x8>(&scene, r, h)
+    });
+
+    let start = Instant::now();
+    let bvh = BvhPeer::build(tris);
+    let bvh_build = start.elapsed().as_secs_f64() * 1e3;
+    run("bvh crate 0.13", Some(bvh_build), &mut |r, h| {
+        bvh.trace_into(r, h)
+    });
+
+    #[cfg(feature = "embree")]
+    {
+        use kdray_benches::peer_embree::EmbreeDevice;
+        let device = EmbreeDevice::new().expect("embree device");
+        let start = Instant::now();
+        let scene = device.build(tris).expect("embree build");
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        run("embree rtcIntersect1", Some(ms), &mut |r, h| {
+            scene.trace1_into(r, h)
+        });
+        run("embree rtcIntersect8", None, &mut |r, h| {
+            scene.trace8_into(r, h)
+        });
+    }
+
+    println!(
+        "mesh {} ({} triangles), {} primary and {} diffuse rays, 1 thread, median of {repeat}, kdray isa={}",
+        mesh.display(),
+        tris.len(),
+        primary.len(),
+        diffuse.len(),
+        kdray_core::isa::name()
+    );
+    println!(
+        "| tracer | build ms | primary Mrays/s | diffuse Mrays/s | primary mismatches | diffuse mismatches |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        let build = r.build_ms.map_or("-".to_string(), |ms| format!("{ms:.0}"));
+        println!(
+            "| {} | {build} | {:.2} | {:.2} | {} | {} |",
+            r.name, r.mrays[0], r.mrays[1], r.mismatches[0], r.mismatches[1]
+        );
+    }
+}

@@ -1,0 +1,219 @@
+//! Packet traversal of the kd-tree, closest hit and occlusion: Wald's coherent packet traversal
+//! (Wald, Slusallek, Benthin & Wagner 2001, "Interactive Rendering with Coherent Ray Tracing";
+//! Wald's PhD thesis 2004, §7.3), written once over [`Lanes`] for 4 and 8 rays.
+//!
+//! All lanes of a traversal share the signs of their directions (the sign of `1/d`, so that `−0`
+//! is negative, as in the scalar walk), so one near/far order serves the packet. Per interior
+//! node each lane's `t_split` cuts its interval; the packet descends the near child if any lane
+//! needs it, the far child if any lane needs that, and both (far pushed) when some lane needs each.
+//! A lane's interval at a node is exactly the scalar walk's, so a lane visits at least the leaves
+//! the scalar walk visits for that ray, and the closest-hit result is the same.
+//!
+//! Packets whose lanes do not share signs are traced as one sub-packet per sign octant (inactive
+//! lanes masked), which keeps partly coherent packets in SIMD; fully incoherent rays are better
+//! served by the scalar walk ([`Scene::intersect`]), which is what `kdray trace --packet 1` and
+//! the renderer's secondary bounces use.
+
+use super::kernels::{PrimHits, intersect_sphere, intersect_triangle, record_closest};
+use super::lanes::Lanes;
+use super::packet::{HitPacket, RayPacket};
+use crate::format::{MAX_DEPTH, Scene, contents};
+use crate::traverse::{Contents, Mixed, Spheres, Triangles, clip_to_box};
+
+/// A pending far child with its lanes' intervals.
+#[derive(Clone, Copy)]
+struct Item<L> {
+    node: u32,
+    tmin: L,
+    tmax: L,
+}
+
+impl Scene<'_> {
+    /// The closest hit of each active lane of `rays` in its `(tmin, tmax)`; inactive lanes stay
+    /// [`HitPacket::miss`]. Picks the kernel monomorphized for the scene's contents.
+    #[inline]
+    pub fn intersect_packet<L: Lanes>(&self, rays: &RayPacket<L>) -> HitPacket<L> {
+        match self.contents() & (contents::TRIANGLES | contents::SPHERES) {
+            contents::TRIANGLES => self.intersect_packet_with::<Triangles, L>(rays),
+            contents::SPHERES => self.intersect_packet_with::<Spheres, L>(rays),
+            _ => self.intersect_packet_with::<Mixed, L>(rays),
+        }
+    }
+
+    /// A mask of the active lanes of `rays` that hit anything in their `(tmin, tmax)`.
+    #[inline]
+    pub fn occluded_packet<L: Lanes>(&self, rays: &RayPacket<L>) -> L {
+        match self.contents() & (contents::TRIANGLES | contents::SPHERES) {
+            contents::TRIANGLES => self.occluded_packet_with::<Triangles, L>(rays),
+            contents::SPHERES => self.occluded_packet_with::<Spheres, L>(rays),
+            _ => self.occluded_packet_with::<Mixed, L>(rays),
+        }
+    }
+
+    /// [`Scene::intersect_packet`] for a fixed [`Contents`].
+    pub fn intersect_packet_with<C: Contents, L: Lanes>(
+        &self,
+        rays: &RayPacket<L>,
+    ) -> HitPacket<L> {
+        let mut hits = HitPacket::miss();
+        let mut query = *rays;
+        for group in sign_groups(rays) {
+            self.walk_packet::<C, L, false>(&mut query, group, &mut hits);
+        }
+        hits
+    }
+
+    /// [`Scene::occluded_packet`] for a fixed [`Contents`].
+    pub fn occluded_packet_with<C: Contents, L: Lanes>(&self, rays: &RayPacket<L>) -> L {
+        let mut hits = HitPacket::miss();
+        let mut query = *rays;
+        let mut occluded = 0u32;
+        for group in sign_groups(rays) {
+            occluded |= self.walk_packet::<C, L, true>(&mut query, group, &mut hits);
+        }
+        L::mask_from_bits(occluded)
+    }
+
+    /// Tests one primitive against the live lanes of `rays`.
+    #[inline(always)]
+    fn intersect_prim_packet<C: Contents, L: Lanes>(
+        &self,
+        prim: u32,
+        rays: &RayPacket<L>,
+    ) -> PrimHits<L> {
+        let n_tris = self.tri_count();
+        if C::SPHERES && (!C::TRIANGLES || prim >= n_tris) {
+            return intersect_sphere(&self.sphere(prim - n_tris), rays);
+        }
+        intersect_triangle(&self.triangle(prim), rays)
+    }
+
+    /// Walks the tree with the lanes in `group` (all of one sign octant). Closest-hit results
+    /// go to `hits` and shrink `rays.tmax`; with `ANY`, returns the lanes that hit something as
+    /// soon as they do, and stops once all have.
+    #[inline(always)]
+    fn walk_packet<C: Contents, L: Lanes, const ANY: bool>(
+        &self,
+        rays: &mut RayPacket<L>,
+        group: u32,
+        hits: &mut HitPacket<L>,
+    ) -> u32 {
+        let original_active = rays.active;
+        // Clip each lane to the scene box with the scalar routine: once per packet, and it
+        // handles zero direction components exactly.
+        let bounds = self.bounds();
+        let (mut t0, mut t1) = (L::splat(f32::NAN).to_array(), L::splat(f32::NAN).to_array());
+        let mut live = 0u32;
+        for i in 0..L::WIDTH {
+            if group & (1 << i) == 0 {
+                continue;
+            }
+            if let Some((a, b)) = clip_to_box(&rays.ray(i), bounds) {
+                t0.as_mut()[i] = a;
+                t1.as_mut()[i] = b;
+                live |= 1 << i;
+            }
+        }
+        let mut done = 0u32; // ANY: lanes that found a hit
+        if live == 0 {
+            return done;
+        }
+        let (mut tmin, mut tmax) = (L::from_array(t0), L::from_array(t1));
+        let is_negative = |inv: L| inv.lt(L::splat(0.0)).bitmask() & group != 0;
+        let negative = [
+            is_negative(rays.inv_dir.x),
+            is_negative(rays.inv_dir.y),
+            is_negative(rays.inv_dir.z),
+        ];
+        let origin = [rays.origin.x, rays.origin.y, rays.origin.z];
+        let inv_dir = [rays.inv_dir.x, rays.inv_dir.y, rays.inv_dir.z];
+        let group_mask = L::mask_from_bits(group);
+        let mut stack: heapless::Vec<Item<L>, MAX_DEPTH> = heapless::Vec::new();
+        let mut index = 0u32;
+        loop {
+            // Lanes still to be served here: a non-empty interval that starts before their
+            // closest hit so far (and, for occlusion, no hit yet).
+            let mut alive = group_mask & tmin.le(tmax) & tmin.le(rays.tmax);
+            if ANY {
+                alive = alive & !L::mask_from_bits(done);
+            }
+            let node = self.node(index);
+            if alive.any() && node.is_leaf() {
+                rays.active = alive;
+                for &prim in self.leaf_prims(&node).as_slice() {
+                    let found = self.intersect_prim_packet::<C, L>(prim, rays);
+                    if ANY {
+                        let bits = (found.mask & rays.active).bitmask();
+                        done |= bits;
+                        rays.active = rays.active & !found.mask;
+                        if rays.active.none() {
+                            break;
+                        }
+                    } else {
+                        record_closest(hits, rays, &found, prim);
+                    }
+                }
+                rays.active = original_active;
+                if ANY && done & group == group & live {
+                    return done;
+                }
+            } else if alive.any() {
+                let axis = node.axis();
+                let t_split = (L::splat(node.split()) - origin[axis]) * inv_dir[axis];
+                let (near, far) = if negative[axis] {
+                    (node.above_child(), index + 1)
+                } else {
+                    (index + 1, node.above_child())
+                };
+                // `!(a < b)` so that NaN (origin on the plane, parallel direction) needs both.
+                let need_near = alive & !t_split.lt(tmin);
+                let need_far = alive & !t_split.gt(tmax);
+                if need_far.none() {
+                    tmax = tmax.min(t_split);
+                    index = near;
+                    continue;
+                }
+                if need_near.none() {
+                    tmin = tmin.max(t_split);
+                    index = far;
+                    continue;
+                }
+                // Validation bounds the depth by MAX_DEPTH and one item per level is pending.
+                let _ = stack.push(Item {
+                    node: far,
+                    tmin: tmin.max(t_split),
+                    tmax,
+                });
+                tmax = tmax.min(t_split);
+                index = near;
+                continue;
+            }
+            match stack.pop() {
+                Some(item) => (index, tmin, tmax) = (item.node, item.tmin, item.tmax),
+                None => return done,
+            }
+        }
+    }
+}
+
+/// The active lanes of `rays` split by the sign octant of their directions (sign of `1/d`).
+fn sign_groups<L: Lanes>(rays: &RayPacket<L>) -> impl Iterator<Item = u32> {
+    let zero = L::splat(0.0);
+    let (sx, sy, sz) = (
+        rays.inv_dir.x.lt(zero).bitmask(),
+        rays.inv_dir.y.lt(zero).bitmask(),
+        rays.inv_dir.z.lt(zero).bitmask(),
+    );
+    let active = rays.active.bitmask();
+    let mut remaining = active;
+    core::iter::from_fn(move || {
+        if remaining == 0 {
+            return None;
+        }
+        let first = remaining.trailing_zeros();
+        let pick = |s: u32| if s >> first & 1 == 1 { s } else { !s };
+        let group = remaining & pick(sx) & pick(sy) & pick(sz);
+        remaining &= !group;
+        Some(group)
+    })
+}
