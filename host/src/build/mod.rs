@@ -247,7 +247,16 @@ fn build_node(
         return make_leaf(ctx, prims, weight);
     }
     let (below_box, above_box) = bounds.split(split.axis, split.pos);
-    let (below, above) = partition(ctx, &prims, events, &split, &below_box, &above_box);
+    let children_split = depth + 1 < ctx.max_depth;
+    let (below, above) = partition(
+        ctx,
+        &prims,
+        events,
+        &split,
+        &below_box,
+        &above_box,
+        children_split,
+    );
     drop(prims);
     let (nb, na) = (below.0.len() as u64, above.0.len() as u64);
     let wb = if nb + na == 0 {
@@ -289,6 +298,8 @@ thread_local! {
 }
 
 /// Classifies primitives against `split` and splits the event lists (Wald & Havran 2006, §5.2).
+/// Event lists are made only for children that may still split (`children_split` and more than
+/// `max_prims` primitives): a child bound to be a leaf needs only its primitive list.
 fn partition(
     ctx: &Ctx,
     prims: &[u32],
@@ -296,10 +307,23 @@ fn partition(
     split: &Split,
     below_box: &Aabb,
     above_box: &Aabb,
+    children_split: bool,
 ) -> (Side, Side) {
-    SCRATCH.with_borrow_mut(|s| partition_with(s, ctx, prims, events, split, below_box, above_box))
+    SCRATCH.with_borrow_mut(|s| {
+        partition_with(
+            s,
+            ctx,
+            prims,
+            events,
+            split,
+            below_box,
+            above_box,
+            children_split,
+        )
+    })
 }
 
+#[allow(clippy::too_many_arguments)]
 fn partition_with(
     s: &mut Scratch,
     ctx: &Ctx,
@@ -308,6 +332,7 @@ fn partition_with(
     split: &Split,
     below_box: &Aabb,
     above_box: &Aabb,
+    children_split: bool,
 ) -> (Side, Side) {
     let n = prims.len();
     let side = &mut s.side;
@@ -372,14 +397,28 @@ fn partition_with(
     }
     let mut ev_b: [Vec<Event>; 3] = Default::default();
     let mut ev_a: [Vec<Event>; 3] = Default::default();
+    let need_b = children_split && prims_b.len() > ctx.params.max_prims;
+    let need_a = children_split && prims_a.len() > ctx.params.max_prims;
+    if !need_b && !need_a {
+        return ((prims_b, ev_b), (prims_a, ev_a));
+    }
+    // A side that needs no events is marked BOTH so the passes below skip its events.
+    if !need_b || !need_a {
+        let drop_side = if need_b { ABOVE } else { BELOW };
+        for p in s.side.iter_mut() {
+            if *p == drop_side {
+                *p = BOTH;
+            }
+        }
+    }
     for (axis, list) in events.into_iter().enumerate() {
         s.new_b.clear();
         s.new_a.clear();
         for &(local, b, a) in &s.clipped {
-            if let Some(b) = b {
+            if let Some(b) = b.filter(|_| need_b) {
                 events::push_events(&mut s.new_b, &b, axis, s.map_b[local as usize]);
             }
-            if let Some(a) = a {
+            if let Some(a) = a.filter(|_| need_a) {
                 events::push_events(&mut s.new_a, &a, axis, s.map_a[local as usize]);
             }
         }
