@@ -18,7 +18,8 @@ use super::kernels::{PrimHits, intersect_sphere, intersect_triangle, record_clos
 use super::lanes::Lanes;
 use super::packet::{HitPacket, RayPacket};
 use crate::format::{MAX_DEPTH, Scene, contents};
-use crate::traverse::{Contents, Mixed, Spheres, Triangles, clip_to_box};
+use crate::traverse::{Contents, GAMMA3, Mixed, Spheres, Triangles};
+use glam::Vec3;
 
 /// A pending far child with its lanes' intervals.
 #[derive(Clone, Copy)]
@@ -99,26 +100,12 @@ impl Scene<'_> {
         hits: &mut HitPacket<L>,
     ) -> u32 {
         let original_active = rays.active;
-        // Clip each lane to the scene box with the scalar routine: once per packet, and it
-        // handles zero direction components exactly.
-        let bounds = self.bounds();
-        let (mut t0, mut t1) = (L::splat(f32::NAN).to_array(), L::splat(f32::NAN).to_array());
-        let mut live = 0u32;
-        for i in 0..L::WIDTH {
-            if group & (1 << i) == 0 {
-                continue;
-            }
-            if let Some((a, b)) = clip_to_box(&rays.ray(i), bounds) {
-                t0.as_mut()[i] = a;
-                t1.as_mut()[i] = b;
-                live |= 1 << i;
-            }
-        }
+        let (mut tmin, mut tmax) = clip_packet_to_box(rays, self.bounds());
+        let live = (tmin.le(tmax) & tmin.lt(L::splat(f32::INFINITY))).bitmask() & group;
         let mut done = 0u32; // ANY: lanes that found a hit
         if live == 0 {
             return done;
         }
-        let (mut tmin, mut tmax) = (L::from_array(t0), L::from_array(t1));
         let is_negative = |inv: L| inv.lt(L::splat(0.0)).bitmask() & group != 0;
         let negative = [
             is_negative(rays.inv_dir.x),
@@ -194,6 +181,32 @@ impl Scene<'_> {
             }
         }
     }
+}
+
+/// Each lane's interval inside the box, clipped to its own range: the slab test of
+/// [`crate::traverse::clip_to_box`] in lanes, with the same operations in the same order. A zero
+/// direction component gives `±∞` bounds, or NaN when the origin lies on the slab's face, which
+/// counts as inside (the scalar test's closed slab).
+#[inline(always)]
+fn clip_packet_to_box<L: Lanes>(rays: &RayPacket<L>, bounds: [Vec3; 2]) -> (L, L) {
+    let (mut t0, mut t1) = (rays.tmin, rays.tmax);
+    let inf = L::splat(f32::INFINITY);
+    let widen = L::splat(1.0 + 2.0 * GAMMA3);
+    let axes = [
+        (rays.origin.x, rays.inv_dir.x),
+        (rays.origin.y, rays.inv_dir.y),
+        (rays.origin.z, rays.inv_dir.z),
+    ];
+    for (axis, (o, inv)) in axes.into_iter().enumerate() {
+        let a = (L::splat(bounds[0][axis]) - o) * inv;
+        let b = (L::splat(bounds[1][axis]) - o) * inv;
+        let (a_nan, b_nan) = (a.is_nan(), b.is_nan());
+        let near = a_nan.select(-inf, a).min(b_nan.select(-inf, b));
+        let far = a_nan.select(inf, a).max(b_nan.select(inf, b)) * widen;
+        t0 = t0.max(near);
+        t1 = t1.min(far);
+    }
+    (t0, t1)
 }
 
 /// The active lanes of `rays` split by the sign octant of their directions (sign of `1/d`).
