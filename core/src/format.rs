@@ -4,7 +4,7 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         1
+//!  1  VERSION         2
 //!  2  CONTENTS        bit set, see `contents::*`: which sections are present
 //!  3  TOTAL_WORDS     length of the whole array in words (catches truncation and trailing data)
 //!  4  NODE_COUNT      kd-tree nodes (≥ 1; 2 words each)
@@ -30,8 +30,10 @@
 //! # Sections
 //! - **Nodes**, 2 words each, pbrt-v3's `KdAccelNode` layout ([`Node`]).
 //! - **Indices**: `u32` primitive ids, referenced by leaves with more than one primitive.
-//! - **Triangles**: 9 f32 each, `v0, e1 = v1 − v0, e2 = v2 − v0`, the layout Möller–Trumbore
-//!   loads (see [`crate::triangle`]).
+//! - **Triangles**: 10 f32 each, `v0, e1 = v1 − v0, e2 = v2 − v0`, the layout Möller–Trumbore
+//!   loads (see [`crate::triangle`]), then the triangle's parallel threshold
+//!   [`Triangle::min_det2`] (`+inf` for a degenerate triangle), so the kernels need not recompute
+//!   `|e1 × e2|²` per test. Validation recomputes it and requires the stored bits.
 //! - **Spheres**: 4 f32 each, centre and radius (> 0).
 //! - **Normals**: 9 f32 per triangle, the normals at `v0, v1, v2`.
 //! - **UVs**: 6 f32 per triangle, the texture coordinates at `v0, v1, v2`.
@@ -45,7 +47,7 @@ use glam::Vec3;
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).
@@ -92,7 +94,7 @@ pub mod contents {
 /// Words per element of each section.
 pub mod stride {
     pub const NODE: usize = 2;
-    pub const TRIANGLE: usize = 9;
+    pub const TRIANGLE: usize = 10;
     pub const SPHERE: usize = 4;
     pub const NORMALS: usize = 9;
     pub const UVS: usize = 6;
@@ -122,7 +124,8 @@ pub enum FormatError {
     SectionsOverlap,
     /// The scene bounds are not finite or min > max.
     BadBounds,
-    /// A triangle, sphere, normal or texture coordinate is NaN or infinite, or a radius ≤ 0.
+    /// A triangle, sphere, normal or texture coordinate is NaN or infinite, a radius ≤ 0, or a
+    /// triangle's stored threshold is not the one its vertices give.
     NonFiniteGeometry,
     /// The tree has no node, or its depth exceeds [`MAX_DEPTH`] or disagrees with DEPTH.
     BadDepth,
@@ -349,10 +352,15 @@ impl<'a> Scene<'a> {
             materials: words_of(6),
         };
         let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
-        if !(finite(scene.tris)
-            && finite(scene.spheres)
-            && finite(scene.normals)
-            && finite(scene.uvs))
+        let triangles_ok = scene.tris.chunks_exact(stride::TRIANGLE).all(|t| {
+            let tri = Triangle {
+                v0: Vec3::new(t[0], t[1], t[2]),
+                e1: Vec3::new(t[3], t[4], t[5]),
+                e2: Vec3::new(t[6], t[7], t[8]),
+            };
+            finite(&t[..9]) && tri.min_det2().to_bits() == t[9].to_bits()
+        });
+        if !(triangles_ok && finite(scene.spheres) && finite(scene.normals) && finite(scene.uvs))
             || scene
                 .spheres
                 .chunks_exact(stride::SPHERE)
@@ -500,12 +508,19 @@ impl<'a> Scene<'a> {
     /// Triangle `i` (`i < tri_count`).
     #[inline(always)]
     pub fn triangle(&self, i: u32) -> Triangle {
+        self.prepared_triangle(i).0
+    }
+
+    /// Triangle `i` and its stored [`Triangle::min_det2`].
+    #[inline(always)]
+    pub fn prepared_triangle(&self, i: u32) -> (Triangle, f32) {
         let s = &self.tris[i as usize * stride::TRIANGLE..][..stride::TRIANGLE];
-        Triangle {
+        let tri = Triangle {
             v0: Vec3::new(s[0], s[1], s[2]),
             e1: Vec3::new(s[3], s[4], s[5]),
             e2: Vec3::new(s[6], s[7], s[8]),
-        }
+        };
+        (tri, s[9])
     }
 
     /// Sphere `i`, counted among spheres (`i < sphere_count`), not among all primitives.

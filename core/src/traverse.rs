@@ -120,7 +120,8 @@ impl Scene<'_> {
                 .intersect(ray)
                 .map(|t| (t, 0.0, 0.0));
         }
-        self.triangle(prim).intersect(ray)
+        let (tri, min_det2) = self.prepared_triangle(prim);
+        tri.intersect_prepared(ray, min_det2)
     }
 
     /// [`Scene::intersect`] for a fixed [`Contents`]; the caller promises the scene holds no other

@@ -64,17 +64,35 @@ impl Triangle {
         self.geometric_normal().length_squared() == 0.0
     }
 
+    /// The parallel threshold `PARALLEL_SIN²·|e1 × e2|²` that [`Triangle::intersect`] compares
+    /// `det²` with, or `+inf` for a degenerate triangle, so that no ray passes it. The flat format
+    /// stores it with each triangle; NaN for a NaN triangle, which no ray passes either.
+    #[inline]
+    pub fn min_det2(&self) -> f32 {
+        let n2 = self.geometric_normal().length_squared();
+        if n2 == 0.0 {
+            f32::INFINITY
+        } else {
+            PARALLEL_SIN * PARALLEL_SIN * n2
+        }
+    }
+
     /// Möller–Trumbore: the hit `(t, α, β)` with `tmin < t < tmax`, `α ≥ 0`, `β ≥ 0`, `α + β ≤ 1`.
     ///
     /// Returns `None` for a miss, a ray parallel to the plane (see [`PARALLEL_SIN`]), a degenerate
     /// triangle, and whenever any input is NaN: every test is written so that NaN fails it.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, f32, f32)> {
-        let n2 = self.geometric_normal().length_squared();
+        self.intersect_prepared(ray, self.min_det2())
+    }
+
+    /// [`Triangle::intersect`] with the triangle's [`Triangle::min_det2`] already known.
+    #[inline(always)]
+    pub fn intersect_prepared(&self, ray: &Ray, min_det2: f32) -> Option<(f32, f32, f32)> {
         let p = ray.dir.cross(self.e2);
         let det = self.e1.dot(p);
         // `!(x > y)` rather than `x <= y` so that NaN counts as parallel.
-        if n2 == 0.0 || !(det * det > PARALLEL_SIN * PARALLEL_SIN * n2) {
+        if !(det * det > min_det2) {
             return None;
         }
         let inv = 1.0 / det;

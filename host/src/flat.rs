@@ -5,9 +5,9 @@ use crate::build::clip::Aabb;
 use crate::build::{BuildNode, BuildParams, Tree};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use kdray_core::Scene;
 use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header};
 use kdray_core::node::Node;
+use kdray_core::{Scene, Triangle};
 use std::path::Path;
 
 /// Flattens `tree` in depth-first order (below child first: the order `Scene::from_words`
@@ -70,10 +70,12 @@ pub fn serialize(
     }
     if c & contents::TRIANGLES != 0 {
         let mut it = geom.triangles.iter().flat_map(|t| {
-            let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
-            [t[0], e1, e2]
-                .into_iter()
-                .flat_map(|v| v.to_array())
+            let tri = Triangle::from_vertices(t[0], t[1], t[2]);
+            let [a, b, c] = [tri.v0, tri.e1, tri.e2].map(|v| v.to_array());
+            a.into_iter()
+                .chain(b)
+                .chain(c)
+                .chain([tri.min_det2()])
                 .map(f32::to_bits)
         });
         section(&mut words, header::TRIS_OFFSET, &mut it);

@@ -141,6 +141,12 @@ fn each_corruption_has_its_own_error() {
         corrupt(&|w| w[tris + 4] = f32::INFINITY.to_bits()),
         Err(FormatError::NonFiniteGeometry)
     );
+    // A stored triangle threshold that is not the one the vertices give (0 would let a
+    // degenerate or grazing ray through).
+    assert_eq!(
+        corrupt(&|w| w[tris + 9] = 0),
+        Err(FormatError::NonFiniteGeometry)
+    );
     let spheres = good[header::SPHERES_OFFSET] as usize;
     assert_eq!(
         corrupt(&|w| w[spheres + 3] = (-1.0f32).to_bits()),

@@ -14,7 +14,7 @@
 use super::lanes::{Lanes, Vec3x};
 use super::packet::{HitPacket, RayPacket};
 use crate::sphere::Sphere;
-use crate::triangle::{PARALLEL_SIN, Triangle};
+use crate::triangle::Triangle;
 
 /// What one primitive does to a packet: the mask of lanes it hits in `(tmin, tmax)`, and there
 /// the hit's `t` and barycentrics `u`, `v` (0 for a sphere). Lanes outside `mask` hold garbage.
@@ -44,19 +44,30 @@ impl<L: Lanes> PrimHits<L> {
 /// every lane: the lanes where [`Triangle::intersect`] would return `Some((t, α, β))` for the
 /// lane's ray (with its current `tmax`), and those values.
 ///
-/// The triangle's `|e1 × e2|²` is computed once, as a scalar, exactly as the scalar kernel does;
-/// a degenerate triangle (`n·n == 0`) or a NaN one returns at once with no lane hit. The lane
-/// tests then follow the scalar's: `det² > PARALLEL_SIN²·n·n` (NaN counts as parallel),
+/// The triangle's threshold [`Triangle::min_det2`] is computed once, as a scalar, exactly as the
+/// scalar kernel does (or taken from the flat format by [`intersect_triangle_prepared`]); a
+/// degenerate triangle (`+inf`) or a NaN one returns at once with no lane hit. The lane tests then
+/// follow the scalar's: `det² > min_det2` (NaN counts as parallel),
 /// `0 ≤ α ≤ 1`, `β ≥ 0 ∧ α + β ≤ 1`, `tmin < t < tmax`, every one false on NaN. Differs from the
 /// scalar only in that the early exits are per packet: a test is skipped once no lane survives.
 #[inline]
 pub fn intersect_triangle<L: Lanes>(tri: &Triangle, rays: &RayPacket<L>) -> PrimHits<L> {
-    let n2 = tri.geometric_normal().length_squared();
-    // A NaN triangle would fail the `det²` test in every lane: skip it too.
-    if n2 == 0.0 || n2.is_nan() {
+    intersect_triangle_prepared(tri, tri.min_det2(), rays)
+}
+
+/// [`intersect_triangle`] with the triangle's [`Triangle::min_det2`] already known (the flat
+/// format stores it).
+#[inline(always)]
+pub fn intersect_triangle_prepared<L: Lanes>(
+    tri: &Triangle,
+    min_det2: f32,
+    rays: &RayPacket<L>,
+) -> PrimHits<L> {
+    // A degenerate (+inf) or NaN threshold fails the `det²` test in every lane: skip the triangle.
+    if !(min_det2 < f32::INFINITY) {
         return PrimHits::none();
     }
-    let min_det2 = L::splat(PARALLEL_SIN * PARALLEL_SIN * n2);
+    let min_det2 = L::splat(min_det2);
     let (e1, e2) = (Vec3x::splat(tri.e1), Vec3x::splat(tri.e2));
 
     let p = rays.dir.cross(e2);

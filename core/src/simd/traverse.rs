@@ -14,7 +14,7 @@
 //! served by the scalar walk ([`Scene::intersect`]), which is what `kdray trace --packet 1` and
 //! the renderer's secondary bounces use.
 
-use super::kernels::{PrimHits, intersect_sphere, intersect_triangle, record_closest};
+use super::kernels::{PrimHits, intersect_sphere, intersect_triangle_prepared, record_closest};
 use super::lanes::Lanes;
 use super::packet::{HitPacket, RayPacket};
 use crate::format::{MAX_DEPTH, Scene, contents};
@@ -86,7 +86,8 @@ impl Scene<'_> {
         if C::SPHERES && (!C::TRIANGLES || prim >= n_tris) {
             return intersect_sphere(&self.sphere(prim - n_tris), rays);
         }
-        intersect_triangle(&self.triangle(prim), rays)
+        let (tri, min_det2) = self.prepared_triangle(prim);
+        intersect_triangle_prepared(&tri, min_det2, rays)
     }
 
     /// Walks the tree with the lanes in `group` (all of one sign octant). Closest-hit results
