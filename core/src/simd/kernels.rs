@@ -48,8 +48,10 @@ impl<L: Lanes> PrimHits<L> {
 /// scalar kernel does (or taken from the flat format by [`intersect_triangle_prepared`]); a
 /// degenerate triangle (`+inf`) or a NaN one returns at once with no lane hit. The lane tests then
 /// follow the scalar's: `det² > min_det2` (NaN counts as parallel),
-/// `0 ≤ α ≤ 1`, `β ≥ 0 ∧ α + β ≤ 1`, `tmin < t < tmax`, every one false on NaN. Differs from the
-/// scalar only in that the early exits are per packet: a test is skipped once no lane survives.
+/// `0 ≤ α ≤ 1`, `β ≥ 0 ∧ α + β ≤ 1`, `tmin < t < tmax`, every one false on NaN. Unlike the
+/// scalar kernel it has no early exits: whether any lane survives a test is unpredictable, and
+/// on the dragon's primary rays the mispredicted branches cost more than the work they skip
+/// (14.0 → 16.4 Mrays/s for 8-wide packets, AVX2).
 #[inline]
 pub fn intersect_triangle<L: Lanes>(tri: &Triangle, rays: &RayPacket<L>) -> PrimHits<L> {
     intersect_triangle_prepared(tri, tri.min_det2(), rays)
@@ -73,18 +75,12 @@ pub fn intersect_triangle_prepared<L: Lanes>(
     let p = rays.dir.cross(e2);
     let det = e1.dot(p);
     let mut mask = (det * det).gt(min_det2);
-    if mask.none() {
-        return PrimHits::none();
-    }
     let inv = det.recip();
     let s = rays.origin - Vec3x::splat(tri.v0);
     let a = s.dot(p) * inv;
     let one = L::splat(1.0);
     let zero = L::splat(0.0);
     mask = mask & a.ge(zero) & a.le(one);
-    if mask.none() {
-        return PrimHits::none();
-    }
     let q = s.cross(e1);
     let b = rays.dir.dot(q) * inv;
     mask = mask & b.ge(zero) & (a + b).le(one);
@@ -150,12 +146,11 @@ pub fn record_closest<L: Lanes>(
 ) -> u32 {
     let m = found.mask & rays.active;
     let bits = m.bitmask();
-    if bits != 0 {
-        hits.t = m.select(found.t, hits.t);
-        hits.prim = m.select_index(L::splat_index(prim), hits.prim);
-        hits.u = m.select(found.u, hits.u);
-        hits.v = m.select(found.v, hits.v);
-        rays.tmax = m.select(found.t, rays.tmax);
-    }
+    // Branch-free: whether any lane hit is unpredictable, and the selects are cheap.
+    hits.t = m.select(found.t, hits.t);
+    hits.prim = m.select_index(L::splat_index(prim), hits.prim);
+    hits.u = m.select(found.u, hits.u);
+    hits.v = m.select(found.v, hits.v);
+    rays.tmax = m.select(found.t, rays.tmax);
     bits
 }
