@@ -5,8 +5,10 @@
 //!   core's rounding against.
 //! - [`Lcg`]: a fixed pseudo-random sequence, so the statistical tests are reproducible.
 //! - [`EDGES`]: the edge values every kernel is fed (±0, ±inf, NaN, denormals, huge, tiny).
+//! - [`strategies`]: proptest strategies for vectors, edge values and grid-snapped scenes.
 
 pub mod f64ref;
+pub mod strategies;
 
 /// Edge values for kernel inputs, in the spirit of wide's `tests/simd_float.rs`: signed zeros,
 /// infinities, NaN, the smallest denormal and a mid-range one, the smallest normal, tiny and huge

@@ -4,39 +4,12 @@
 //! common), degenerate triangles, spheres, and axis-parallel directions with ±0 components.
 
 use glam::Vec3;
-use kdray::Geometry;
 use kdray::build::{BuildParams, build};
 use kdray::flat::serialize;
 use kdray_core::traverse::Mixed;
 use kdray_core::{Hit, Ray, Scene};
+use kdray_tests::strategies::{grid_geometry, grid_point};
 use proptest::prelude::*;
-
-fn grid() -> impl Strategy<Value = f32> {
-    (-8i32..=8).prop_map(|k| k as f32 * 0.25)
-}
-
-fn point() -> impl Strategy<Value = Vec3> {
-    (grid(), grid(), grid()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-}
-
-fn triangle() -> impl Strategy<Value = [Vec3; 3]> {
-    prop_oneof![
-        4 => [point(), point(), point()],
-        // Axis-aligned: all three share one coordinate.
-        2 => (point(), point(), point(), 0usize..3).prop_map(|(a, mut b, mut c, k)| {
-            b[k] = a[k];
-            c[k] = a[k];
-            [a, b, c]
-        }),
-        // Degenerate: a repeated vertex or three collinear points.
-        1 => (point(), point()).prop_map(|(a, b)| [a, b, a]),
-        1 => (point(), point()).prop_map(|(a, b)| [a, b, a + 2.0 * (b - a)]),
-    ]
-}
-
-fn sphere() -> impl Strategy<Value = (Vec3, f32)> {
-    (point(), 1u32..8).prop_map(|(c, r)| (c, r as f32 * 0.125))
-}
 
 fn direction() -> impl Strategy<Value = Vec3> {
     let component = prop_oneof![
@@ -52,7 +25,7 @@ fn direction() -> impl Strategy<Value = Vec3> {
 
 fn ray() -> impl Strategy<Value = Ray> {
     let origin = prop_oneof![
-        point(),
+        grid_point(),
         (-3.0f32..3.0, -3.0f32..3.0, -3.0f32..3.0).prop_map(Vec3::from)
     ];
     let range = prop_oneof![
@@ -60,19 +33,6 @@ fn ray() -> impl Strategy<Value = Ray> {
         1 => (-2.0f32..2.0, 0.5f32..6.0).prop_map(|(a, b)| (a, a + b)),
     ];
     (origin, direction(), range).prop_map(|(o, d, (t0, t1))| Ray::new(o, d).with_range(t0, t1))
-}
-
-fn geometry() -> impl Strategy<Value = Geometry> {
-    (
-        prop::collection::vec(triangle(), 0..80),
-        prop::collection::vec(sphere(), 0..6),
-    )
-        .prop_filter("empty scene", |(t, s)| !t.is_empty() || !s.is_empty())
-        .prop_map(|(triangles, spheres)| Geometry {
-            triangles,
-            spheres,
-            ..Geometry::default()
-        })
 }
 
 fn params() -> impl Strategy<Value = BuildParams> {
@@ -102,7 +62,7 @@ proptest! {
 
     #[test]
     fn traversal_equals_brute_force(
-        geom in geometry(),
+        geom in grid_geometry(6),
         params in params(),
         rays in prop::collection::vec(ray(), 1..40),
     ) {

@@ -6,25 +6,8 @@ use glam::Vec3;
 use kdray_core::optics::{fresnel_dielectric, reflect, refract, schlick};
 use kdray_tests::EDGES;
 use kdray_tests::f64ref::{self, dv};
+use kdray_tests::strategies::*;
 use proptest::prelude::*;
-
-fn vec3(lo: f32, hi: f32) -> impl Strategy<Value = Vec3> {
-    (lo..hi, lo..hi, lo..hi).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-}
-
-fn unit_vec3() -> impl Strategy<Value = Vec3> {
-    vec3(-1.0, 1.0)
-        .prop_filter("not too short to normalize", |v| v.length() > 0.1)
-        .prop_map(Vec3::normalize)
-}
-
-fn any_f32() -> impl Strategy<Value = f32> {
-    prop_oneof![prop::num::f32::ANY, prop::sample::select(&EDGES[..])]
-}
-
-fn any_vec3() -> impl Strategy<Value = Vec3> {
-    (any_f32(), any_f32(), any_f32()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-}
 
 /// `(sin²θ1 of the incidence, (η1/η2)²·sin²θ1)` in f64; the second is `sin²θ2`, over 1 under total
 /// internal reflection.

@@ -4,43 +4,11 @@
 //! lanes never written.
 
 use glam::Vec3;
-use kdray::Geometry;
-use kdray::build::{BuildParams, build};
-use kdray::flat::serialize;
 use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::traverse::Mixed;
 use kdray_core::{Hit, Ray, Scene};
+use kdray_tests::strategies::{grid_geometry, grid_point, scene_words};
 use proptest::prelude::*;
-
-fn grid() -> impl Strategy<Value = f32> {
-    (-8i32..=8).prop_map(|k| k as f32 * 0.25)
-}
-
-fn point() -> impl Strategy<Value = Vec3> {
-    (grid(), grid(), grid()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-}
-
-fn geometry() -> impl Strategy<Value = Geometry> {
-    let tri = prop_oneof![
-        3 => [point(), point(), point()],
-        1 => (point(), point(), point(), 0usize..3).prop_map(|(a, mut b, mut c, k)| {
-            b[k] = a[k];
-            c[k] = a[k];
-            [a, b, c]
-        }),
-        1 => (point(), point()).prop_map(|(a, b)| [a, b, a]),
-    ];
-    let sphere = (point(), 1u32..8).prop_map(|(c, r)| (c, r as f32 * 0.125));
-    (
-        prop::collection::vec(tri, 1..80),
-        prop::collection::vec(sphere, 0..4),
-    )
-        .prop_map(|(triangles, spheres)| Geometry {
-            triangles,
-            spheres,
-            ..Geometry::default()
-        })
-}
 
 fn component() -> impl Strategy<Value = f32> {
     prop_oneof![4 => -1.0f32..1.0, 1 => Just(0.0f32), 1 => Just(-0.0f32)]
@@ -50,9 +18,9 @@ fn component() -> impl Strategy<Value = f32> {
 /// signs, grid origins on split planes, NaN rays, negative tmin).
 fn rays() -> impl Strategy<Value = Vec<Ray>> {
     let coherent = (
-        point(),
+        grid_point(),
         (component(), component(), component()),
-        prop::collection::vec((point(), -0.2f32..0.2), 1..9),
+        prop::collection::vec((grid_point(), -0.2f32..0.2), 1..9),
     )
         .prop_filter_map("zero direction", |(o, (x, y, z), jitter)| {
             let d = Vec3::new(x, y, z).try_normalize()?;
@@ -64,7 +32,7 @@ fn rays() -> impl Strategy<Value = Vec<Ray>> {
             )
         });
     let any_ray = (
-        point(),
+        grid_point(),
         (component(), component(), component()),
         prop_oneof![
             4 => Just((0.0f32, f32::INFINITY)),
@@ -78,21 +46,12 @@ fn rays() -> impl Strategy<Value = Vec<Ray>> {
     prop_oneof![coherent, prop::collection::vec(any_ray, 1..9)]
 }
 
-fn scene_words(geom: &Geometry, isect: f64) -> Vec<u32> {
-    let params = BuildParams {
-        intersect_cost: isect,
-        parallel: false,
-        ..BuildParams::default()
-    };
-    serialize(&build(geom, &params, None).unwrap(), geom, 0.0).unwrap()
-}
-
 macro_rules! packet_matches_scalar {
     ($name:ident, $lanes:ty, $w:expr) => {
         proptest! {
             #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
             #[test]
-            fn $name(geom in geometry(), isect in prop_oneof![Just(80.0), Just(4.0)], packets in prop::collection::vec(rays(), 1..12)) {
+            fn $name(geom in grid_geometry(4), isect in prop_oneof![Just(80.0), Just(4.0)], packets in prop::collection::vec(rays(), 1..12)) {
                 let words = scene_words(&geom, isect);
                 let scene = Scene::from_words(&words).unwrap();
                 for rays in &packets {

@@ -16,6 +16,7 @@ use kdray_core::simd::{
     record_closest,
 };
 use kdray_core::{Hit, Ray, Sphere, Triangle, math};
+use kdray_tests::EDGES;
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
@@ -33,30 +34,6 @@ const SENTINEL: Hit = Hit {
     u: 99.0,
     v: -99.0,
 };
-
-/// Edge values for every input float: signed zeros, infinities, NaN, denormals, the smallest
-/// normal, tiny and huge finite values, and ordinary neighbours.
-const EDGES: [f32; 19] = [
-    0.0,
-    -0.0,
-    f32::INFINITY,
-    f32::NEG_INFINITY,
-    f32::NAN,
-    1.0e-45,
-    -1.0e-45,
-    1.0e-40,
-    f32::MIN_POSITIVE,
-    1.0e-30,
-    -1.0e-30,
-    1.0e30,
-    -1.0e30,
-    f32::MAX,
-    f32::MIN,
-    1.0,
-    -1.0,
-    0.5,
-    -3.0,
-];
 
 /// Distance in units in the last place, with `+0 == −0`; NaN is 0 from NaN and `u32::MAX` from
 /// anything else.

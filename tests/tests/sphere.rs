@@ -6,29 +6,9 @@
 use glam::Vec3;
 use kdray_core::{Ray, Sphere};
 use kdray_tests::f64ref::{self, dv};
+use kdray_tests::strategies::*;
 use kdray_tests::{EDGES, Lcg};
 use proptest::prelude::*;
-
-/// Unit roundoff of f32, 2⁻²⁴.
-const U: f64 = f32::EPSILON as f64 / 2.0;
-
-fn vec3(lo: f32, hi: f32) -> impl Strategy<Value = Vec3> {
-    (lo..hi, lo..hi, lo..hi).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-}
-
-fn unit_vec3() -> impl Strategy<Value = Vec3> {
-    vec3(-1.0, 1.0)
-        .prop_filter("not too short to normalize", |v| v.length() > 0.1)
-        .prop_map(Vec3::normalize)
-}
-
-fn any_f32() -> impl Strategy<Value = f32> {
-    prop_oneof![prop::num::f32::ANY, prop::sample::select(&EDGES[..])]
-}
-
-fn any_vec3() -> impl Strategy<Value = Vec3> {
-    (any_f32(), any_f32(), any_f32()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-}
 
 /// The seed's textbook quadratic (equation (32)) in f32, `d` normalized: `t = −p/2 − sqrt(p²/4 −
 /// q)` with `p/2 = d·(o − c)`, `q = |o − c|² − R²`. Only here to show the far-sphere case is stiff.

@@ -7,29 +7,8 @@ use kdray_core::triangle::PARALLEL_SIN;
 use kdray_core::{Ray, Triangle};
 use kdray_tests::EDGES;
 use kdray_tests::f64ref::{self, dv};
+use kdray_tests::strategies::*;
 use proptest::prelude::*;
-
-/// Unit roundoff of f32, 2⁻²⁴.
-const U: f64 = f32::EPSILON as f64 / 2.0;
-
-fn vec3(lo: f32, hi: f32) -> impl Strategy<Value = Vec3> {
-    (lo..hi, lo..hi, lo..hi).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-}
-
-fn unit_vec3() -> impl Strategy<Value = Vec3> {
-    vec3(-1.0, 1.0)
-        .prop_filter("not too short to normalize", |v| v.length() > 0.1)
-        .prop_map(Vec3::normalize)
-}
-
-/// Any f32 at all (NaN, ±inf, denormals included), or one of the listed edge values.
-fn any_f32() -> impl Strategy<Value = f32> {
-    prop_oneof![prop::num::f32::ANY, prop::sample::select(&EDGES[..])]
-}
-
-fn any_vec3() -> impl Strategy<Value = Vec3> {
-    (any_f32(), any_f32(), any_f32()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-}
 
 /// A well-conditioned hit: edges 0.1–2 long at ≥ 14.5° to each other (`|e1×e2| ≥ ¼|e1||e2|`), a
 /// unit direction at ≥ 11.5° to the plane (`|d·n̂| ≥ 0.2`), a target point with barycentrics at

@@ -1,0 +1,109 @@
+//! proptest strategies shared by the test binaries.
+
+use crate::EDGES;
+use glam::Vec3;
+use kdray::Geometry;
+use kdray::build::{BuildParams, build};
+use kdray::flat::serialize;
+use proptest::prelude::*;
+
+/// Unit roundoff of f32, 2⁻²⁴.
+pub const U: f64 = f32::EPSILON as f64 / 2.0;
+
+/// A vector with components uniform in `lo..hi`.
+pub fn vec3(lo: f32, hi: f32) -> impl Strategy<Value = Vec3> {
+    (lo..hi, lo..hi, lo..hi).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// A unit vector (from a cube sample long enough to normalize well).
+pub fn unit_vec3() -> impl Strategy<Value = Vec3> {
+    vec3(-1.0, 1.0)
+        .prop_filter("not too short to normalize", |v| v.length() > 0.1)
+        .prop_map(Vec3::normalize)
+}
+
+/// Any f32 at all (NaN, ±inf, denormals included), or one of the listed edge values.
+pub fn any_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![prop::num::f32::ANY, prop::sample::select(&EDGES[..])]
+}
+
+/// A vector of [`any_f32`] components.
+pub fn any_vec3() -> impl Strategy<Value = Vec3> {
+    (any_f32(), any_f32(), any_f32()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// A coordinate on a coarse grid (multiples of 1/4 in `[-2, 2]`), so that split planes, shared
+/// edges, coplanar and axis-aligned triangles and ray origins on planes are common.
+pub fn grid() -> impl Strategy<Value = f32> {
+    (-8i32..=8).prop_map(|k| k as f32 * 0.25)
+}
+
+/// A point on the [`grid`].
+pub fn grid_point() -> impl Strategy<Value = Vec3> {
+    (grid(), grid(), grid()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// Triangles with grid vertices: general ones, axis-aligned ones, degenerate ones (a repeated
+/// vertex, three collinear points), and clusters of several in one axis-aligned plane.
+pub fn grid_triangles() -> impl Strategy<Value = Vec<[Vec3; 3]>> {
+    let one = prop_oneof![
+        4 => [grid_point(), grid_point(), grid_point()],
+        2 => (grid_point(), grid_point(), grid_point(), 0usize..3).prop_map(|(a, mut b, mut c, k)| {
+            b[k] = a[k];
+            c[k] = a[k];
+            [a, b, c]
+        }),
+        1 => (grid_point(), grid_point()).prop_map(|(a, b)| [a, b, a]),
+        1 => (grid_point(), grid_point()).prop_map(|(a, b)| [a, b, a + 2.0 * (b - a)]),
+    ];
+    let coplanar = (
+        0usize..3,
+        grid(),
+        prop::collection::vec([grid_point(), grid_point(), grid_point()], 2..6),
+    )
+        .prop_map(|(k, c, tris)| {
+            tris.into_iter()
+                .map(|t| {
+                    t.map(|mut v| {
+                        v[k] = c;
+                        v
+                    })
+                })
+                .collect::<Vec<_>>()
+        });
+    prop::collection::vec(
+        prop_oneof![4 => one.prop_map(|t| vec![t]), 1 => coplanar],
+        0..40,
+    )
+    .prop_map(|groups| groups.into_iter().flatten().collect())
+}
+
+/// A sphere centred on the grid with a radius in `1/8 ..= 7/8`.
+pub fn grid_sphere() -> impl Strategy<Value = (Vec3, f32)> {
+    (grid_point(), 1u32..8).prop_map(|(c, r)| (c, r as f32 * 0.125))
+}
+
+/// A non-empty scene of [`grid_triangles`] and up to `max_spheres - 1` [`grid_sphere`]s.
+pub fn grid_geometry(max_spheres: usize) -> impl Strategy<Value = Geometry> {
+    (
+        grid_triangles(),
+        prop::collection::vec(grid_sphere(), 0..max_spheres),
+    )
+        .prop_filter("empty scene", |(t, s)| !t.is_empty() || !s.is_empty())
+        .prop_map(|(triangles, spheres)| Geometry {
+            triangles,
+            spheres,
+            ..Geometry::default()
+        })
+}
+
+/// The flat words of `geom` built single-threaded with the given intersection cost.
+pub fn scene_words(geom: &Geometry, intersect_cost: f64) -> Vec<u32> {
+    let params = BuildParams {
+        intersect_cost,
+        parallel: false,
+        ..BuildParams::default()
+    };
+    let tree = build(geom, &params, None).expect("finite geometry builds");
+    serialize(&tree, geom, 0.0).expect("small trees fit the format")
+}
