@@ -10,7 +10,7 @@
 //!   visits only the side holding its origin, or, when the origin lies on the plane (`0 · ∞ =
 //!   NaN`), both sides;
 //! - the root box is entered with an explicit per-axis test for zero components and a far distance
-//!   widened by `1 + 2γ₃` (pbrt-v3's robust `Bounds3::IntersectP`), so a ray grazing the box is
+//!   widened by `2γ₃` of its magnitude (pbrt-v3's robust `Bounds3::IntersectP`), so a ray grazing the box is
 //!   not lost to rounding;
 //! - non-finite rays are a miss before any arithmetic, so nothing can loop on NaN.
 //!
@@ -75,7 +75,9 @@ pub fn clip_to_box(ray: &Ray, bounds: [Vec3; 2]) -> Option<(f32, f32)> {
         if near > far {
             core::mem::swap(&mut near, &mut far);
         }
-        far *= 1.0 + 2.0 * GAMMA3;
+        // Away from the origin's side whatever the sign (pbrt-v3 multiplies, which narrows the
+        // slab when `far < 0`, possible with `tmin < 0`).
+        far += far.abs() * (2.0 * GAMMA3);
         t0 = t0.max(near);
         t1 = t1.min(far);
         if t0 > t1 {
@@ -83,6 +85,22 @@ pub fn clip_to_box(ray: &Ray, bounds: [Vec3; 2]) -> Option<(f32, f32)> {
         }
     }
     Some((t0, t1))
+}
+
+/// Relative slack on a node's entry distance before the closest hit may rule the node out.
+///
+/// A split plane's `t` and Möller–Trumbore's `t` of a triangle lying on (or touching) that plane
+/// are both correctly computed to a few ULPs, but not to the same bits: the triangle's hit can come
+/// out below the plane's `t`. Without slack, a closer hit on a triangle in the plane of the far
+/// child is skipped in favour of a farther one found in the near child (found by the
+/// brute-force property test). 2⁻¹⁸ is 32 ULPs, far more than either rounding error; it only
+/// makes traversal visit a node it could have skipped when two hits lie that close.
+pub const ENTRY_SLACK: f32 = 1.0 / (1 << 18) as f32;
+
+/// `tmin` moved towards −∞ by [`ENTRY_SLACK`] of its magnitude.
+#[inline(always)]
+pub fn entry_with_slack(tmin: f32) -> f32 {
+    tmin - tmin.abs() * ENTRY_SLACK
 }
 
 /// One pending far child: node index and its `(tmin, tmax)`.
@@ -172,11 +190,13 @@ impl Scene<'_> {
         let mut index = 0u32;
         loop {
             let node = self.node(index);
-            if best_t < tmin || node.is_leaf() {
-                // A node entered beyond the closest hit so far is skipped, not a reason to stop:
-                // a ray lying in a split plane pushes both children with the same interval, so
-                // the stack is not always ordered by entry distance.
-                if best_t >= tmin {
+            // A node entered beyond the closest hit so far is skipped, not a reason to stop: a
+            // ray lying in a split plane pushes both children with the same interval, so the
+            // stack is not always ordered by entry distance. The entry is lowered by
+            // `ENTRY_SLACK` first, see there.
+            let beyond = best_t < entry_with_slack(tmin);
+            if beyond || node.is_leaf() {
+                if !beyond {
                     let prims = self.leaf_prims(&node);
                     let (t, stop) = visit(self, prims.as_slice(), (tmin, tmax));
                     best_t = t;

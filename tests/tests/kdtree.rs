@@ -58,7 +58,7 @@ fn brute_force(scene: &Scene, ray: &Ray) -> Hit {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 400, max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
 
     #[test]
     fn traversal_equals_brute_force(
@@ -72,7 +72,8 @@ proptest! {
         for ray in &rays {
             let expect = brute_force(&scene, ray);
             let got = scene.intersect(ray);
-            prop_assert_eq!(got.t.to_bits(), expect.t.to_bits(), "ray {:?}: got {:?}, brute force {:?}\ntris {:?}\nspheres {:?}", ray, got, expect,
+            // The same t exactly (as numbers: primitives tying at the origin give 0 and -0).
+            prop_assert!(got.t == expect.t, "ray {:?}: got {:?}, brute force {:?}\ntris {:?}\nspheres {:?}", ray, got, expect,
                 geom.triangles.iter().map(|t| t.map(|v| v.to_array())).collect::<Vec<_>>(), geom.spheres);
             if got.prim != expect.prim {
                 // A tie at the same t (shared edge, coincident primitives): both are correct.

@@ -18,7 +18,7 @@ use super::kernels::{PrimHits, intersect_sphere, intersect_triangle_prepared, re
 use super::lanes::Lanes;
 use super::packet::{HitPacket, RayPacket};
 use crate::format::{MAX_DEPTH, Scene, contents};
-use crate::traverse::{Contents, GAMMA3, Mixed, Spheres, Triangles};
+use crate::traverse::{Contents, ENTRY_SLACK, GAMMA3, Mixed, Spheres, Triangles};
 use glam::Vec3;
 
 /// A pending far child with its lanes' intervals.
@@ -121,7 +121,9 @@ impl Scene<'_> {
         loop {
             // Lanes still to be served here: a non-empty interval that starts before their
             // closest hit so far (and, for occlusion, no hit yet).
-            let mut alive = group_mask & tmin.le(tmax) & tmin.le(rays.tmax);
+            // (`ENTRY_SLACK`: see the scalar walk.)
+            let entry = tmin - tmin.abs() * L::splat(ENTRY_SLACK);
+            let mut alive = group_mask & tmin.le(tmax) & entry.le(rays.tmax);
             if ANY {
                 alive = alive & !L::mask_from_bits(done);
             }
@@ -192,7 +194,7 @@ impl Scene<'_> {
 fn clip_packet_to_box<L: Lanes>(rays: &RayPacket<L>, bounds: [Vec3; 2]) -> (L, L) {
     let (mut t0, mut t1) = (rays.tmin, rays.tmax);
     let inf = L::splat(f32::INFINITY);
-    let widen = L::splat(1.0 + 2.0 * GAMMA3);
+    let widen = L::splat(2.0 * GAMMA3);
     let axes = [
         (rays.origin.x, rays.inv_dir.x),
         (rays.origin.y, rays.inv_dir.y),
@@ -203,7 +205,8 @@ fn clip_packet_to_box<L: Lanes>(rays: &RayPacket<L>, bounds: [Vec3; 2]) -> (L, L
         let b = (L::splat(bounds[1][axis]) - o) * inv;
         let (a_nan, b_nan) = (a.is_nan(), b.is_nan());
         let near = a_nan.select(-inf, a).min(b_nan.select(-inf, b));
-        let far = a_nan.select(inf, a).max(b_nan.select(inf, b)) * widen;
+        let far = a_nan.select(inf, a).max(b_nan.select(inf, b));
+        let far = far + far.abs() * widen;
         t0 = t0.max(near);
         t1 = t1.min(far);
     }
