@@ -219,6 +219,8 @@ pub struct TreeStats {
     pub sah_cost: f64,
     pub bytes: usize,
     pub bytes_per_prim: f64,
+    /// Bytes per triangle (0 without triangles).
+    pub bytes_per_tri: f64,
 }
 
 /// Walks a validated scene to gather [`TreeStats`], pricing nodes with `params`' costs.
@@ -236,6 +238,11 @@ pub fn stats(scene: &Scene, words: usize, params: &BuildParams) -> TreeStats {
         sah_cost: 0.0,
         bytes: words * 4,
         bytes_per_prim: (words * 4) as f64 / scene.prim_count().max(1) as f64,
+        bytes_per_tri: if scene.tri_count() > 0 {
+            (words * 4) as f64 / scene.tri_count() as f64
+        } else {
+            0.0
+        },
     };
     let mut refs = 0u64;
     let mut stack = vec![(0u32, root)];

@@ -31,24 +31,7 @@ enum Command {
     /// Print statistics of a .kdt file.
     Info { file: PathBuf },
     /// Trace a rays file through a scene (a .kdt or anything `build` accepts) and write the hits.
-    Trace {
-        input: PathBuf,
-        #[arg(long)]
-        rays: PathBuf,
-        #[arg(long)]
-        out: PathBuf,
-        /// Rays per packet: 1 (single rays), or 4 or 8 consecutive rays traced together.
-        #[arg(long, default_value_t = 1, value_parser = commands::parse_packet)]
-        packet: u32,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Trace this many times and report the fastest.
-        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-        repeat: u32,
-        #[command(flatten)]
-        build: commands::BuildArgs,
-    },
+    Trace(commands::TraceArgs),
     /// Write a benchmark ray set (extension of the contract): primary rays of the framing camera
     /// in 2x4 tiles, or one cosine-weighted diffuse bounce from each primary hit.
     Rays {
@@ -70,23 +53,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Build { input, out, build } => commands::build(&input, &out, &build),
         Command::Info { file } => commands::info(&file),
-        Command::Trace {
-            input,
-            rays,
-            out,
-            packet,
-            threads,
-            repeat,
-            build,
-        } => commands::trace(&commands::TraceArgs {
-            input,
-            rays,
-            out,
-            packet,
-            threads,
-            repeat,
-            build,
-        }),
+        Command::Trace(args) => commands::trace(&args),
         Command::Rays {
             input,
             out,

@@ -281,6 +281,18 @@ fn build_node(
 
 type Side = (Vec<u32>, [Vec<Event>; 3]);
 
+/// Pushes the new events that sort before `e`, then `e` renumbered to `prim`: one step of merging
+/// a child's list from its parent's (already sorted) and the straddlers' (sorted apart).
+#[inline]
+fn merge_push(out: &mut Vec<Event>, new: &[Event], next_new: &mut usize, e: Event, prim: u32) {
+    let key = e.key();
+    while *next_new < new.len() && new[*next_new].key() < key {
+        out.push(new[*next_new]);
+        *next_new += 1;
+    }
+    out.push(Event { prim, ..e });
+}
+
 /// Per-thread buffers reused across nodes: most nodes are small, and allocating these per node
 /// cost a quarter of the build time.
 #[derive(Default)]
@@ -438,28 +450,8 @@ fn partition_with(
         // One pass over the parent's sorted list, merging the straddlers' sorted new events in.
         for e in list {
             match s.side[e.prim as usize] {
-                BELOW => {
-                    let key = e.key();
-                    while ib < s.new_b.len() && s.new_b[ib].key() < key {
-                        out_b.push(s.new_b[ib]);
-                        ib += 1;
-                    }
-                    out_b.push(Event {
-                        prim: s.map_b[e.prim as usize],
-                        ..e
-                    });
-                }
-                ABOVE => {
-                    let key = e.key();
-                    while ia < s.new_a.len() && s.new_a[ia].key() < key {
-                        out_a.push(s.new_a[ia]);
-                        ia += 1;
-                    }
-                    out_a.push(Event {
-                        prim: s.map_a[e.prim as usize],
-                        ..e
-                    });
-                }
+                BELOW => merge_push(&mut out_b, &s.new_b, &mut ib, e, s.map_b[e.prim as usize]),
+                ABOVE => merge_push(&mut out_a, &s.new_a, &mut ia, e, s.map_a[e.prim as usize]),
                 _ => {}
             }
         }

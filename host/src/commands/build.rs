@@ -139,6 +139,9 @@ pub fn info(file: &Path) -> Result<()> {
     );
     println!("bytes           {}", s.bytes);
     println!("bytes per prim  {:.2}", s.bytes_per_prim);
+    if scene.tri_count() > 0 {
+        println!("bytes per tri   {:.2}", s.bytes_per_tri);
+    }
     println!("build ms        {:.1}", scene.build_ms());
     Ok(())
 }

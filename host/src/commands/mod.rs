@@ -4,4 +4,4 @@ mod build;
 mod trace;
 
 pub use build::{BuildArgs, build, info};
-pub use trace::{RayKind, TraceArgs, parse_packet, parse_size, rays, trace};
+pub use trace::{RayKind, TraceArgs, parse_size, rays, trace};

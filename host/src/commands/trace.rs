@@ -9,13 +9,27 @@ use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// `kdray trace`'s arguments.
+#[derive(clap::Args, Debug)]
 pub struct TraceArgs {
+    /// A .kdt, or anything `build` accepts (built first; build_ms reports that build).
     pub input: PathBuf,
+    /// The rays file (n × 8 f32: ox oy oz dx dy dz tmin tmax).
+    #[arg(long)]
     pub rays: PathBuf,
+    /// The hits file to write (n × (f32 t, u32 prim, f32 u, f32 v)).
+    #[arg(long)]
     pub out: PathBuf,
+    /// Rays per packet: 1 (single rays), or 4 or 8 consecutive rays traced together.
+    #[arg(long, default_value_t = 1, value_parser = parse_packet)]
     pub packet: u32,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
     pub threads: Option<usize>,
+    /// Trace this many times and report the fastest.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub repeat: u32,
+    #[command(flatten)]
     pub build: BuildArgs,
 }
 
