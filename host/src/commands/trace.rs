@@ -120,6 +120,9 @@ pub fn parse_packet(s: &str) -> core::result::Result<u32, String> {
     }
 }
 
+/// The largest ray set `kdray rays` writes: 2²⁶ rays, 2 GiB.
+const MAX_PIXELS: u64 = 1 << 26;
+
 /// Parses `WxH`.
 pub fn parse_size(s: &str) -> core::result::Result<(u32, u32), String> {
     let (w, h) = s
@@ -132,7 +135,12 @@ pub fn parse_size(s: &str) -> core::result::Result<(u32, u32), String> {
             .filter(|&n| (1..=65536).contains(&n))
     };
     match (parse(w), parse(h)) {
-        (Some(w), Some(h)) => Ok((w, h)),
+        (Some(w), Some(h)) if u64::from(w) * u64::from(h) <= MAX_PIXELS => Ok((w, h)),
+        (Some(w), Some(h)) => Err(format!(
+            "{w}x{h} is {} pixels; at most {MAX_PIXELS} (a {} MiB ray file) are written",
+            u64::from(w) * u64::from(h),
+            MAX_PIXELS * 32 >> 20
+        )),
         _ => Err(format!(
             "sizes must be whole numbers from 1 to 65536, got '{s}'"
         )),
