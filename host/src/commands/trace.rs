@@ -139,7 +139,7 @@ pub fn parse_size(s: &str) -> core::result::Result<(u32, u32), String> {
         (Some(w), Some(h)) => Err(format!(
             "{w}x{h} is {} pixels; at most {MAX_PIXELS} (a {} MiB ray file) are written",
             u64::from(w) * u64::from(h),
-            MAX_PIXELS * 32 >> 20
+            (MAX_PIXELS * 32) >> 20
         )),
         _ => Err(format!(
             "sizes must be whole numbers from 1 to 65536, got '{s}'"
