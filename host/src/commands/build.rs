@@ -64,18 +64,23 @@ pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result
             .expect("valid template"),
     );
     let start = Instant::now();
-    let tree = std::thread::scope(|s| {
-        let worker = s.spawn(|| kdray::build::build(geom, params, Some(&progress)));
+    // The build runs on its own thread and times itself, so the progress polling below adds
+    // nothing to build_ms.
+    let (tree, build_ms) = std::thread::scope(|s| {
+        let worker = s.spawn(|| {
+            let t0 = Instant::now();
+            let tree = kdray::build::build(geom, params, Some(&progress));
+            (tree, t0.elapsed().as_secs_f64() * 1e3)
+        });
         while !worker.is_finished() {
-            std::thread::sleep(Duration::from_millis(100));
+            std::thread::sleep(Duration::from_millis(20));
             if start.elapsed() > Duration::from_millis(500) {
                 bar.set_position(progress.load(Ordering::Relaxed) * 1000 / PROGRESS_TOTAL);
             }
         }
         worker.join().expect("builder thread panicked")
-    })
-    .map_err(|e| Error::new(path, e))?;
-    let build_ms = start.elapsed().as_secs_f64() * 1e3;
+    });
+    let tree = tree.map_err(|e| Error::new(path, e))?;
     bar.finish_and_clear();
     let words = flat::serialize(&tree, geom, build_ms as f32).map_err(|e| Error::new(path, e))?;
     Ok((words, build_ms))
