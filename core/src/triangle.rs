@@ -91,27 +91,24 @@ impl Triangle {
     pub fn intersect_prepared(&self, ray: &Ray, min_det2: f32) -> Option<(f32, f32, f32)> {
         let p = ray.dir.cross(self.e2);
         let det = self.e1.dot(p);
-        // `!(x > y)` rather than `x <= y` so that NaN counts as parallel.
-        if !(det * det > min_det2) {
-            return None;
-        }
         let inv = 1.0 / det;
         let s = ray.origin - self.v0;
         let a = s.dot(p) * inv;
-        if !(0.0..=1.0).contains(&a) {
-            return None;
-        }
         let q = s.cross(self.e1);
         let b = ray.dir.dot(q) * inv;
-        if !(b >= 0.0 && a + b <= 1.0) {
-            return None;
-        }
         let t = self.e2.dot(q) * inv;
-        if t > ray.tmin && t < ray.tmax {
-            Some((t, a, b))
-        } else {
-            None
-        }
+        // All tests combined with `&` (no short circuit), then one branch: which test fails is
+        // unpredictable, and the mispredictions of early exits cost more than the arithmetic
+        // they skip. Every comparison is false on NaN, so NaN anywhere is a miss; a ray parallel
+        // to the plane fails `det² > min_det2` (`+inf` for a degenerate triangle).
+        let hit = (det * det > min_det2)
+            & (a >= 0.0)
+            & (a <= 1.0)
+            & (b >= 0.0)
+            & (a + b <= 1.0)
+            & (t > ray.tmin)
+            & (t < ray.tmax);
+        if hit { Some((t, a, b)) } else { None }
     }
 }
 

@@ -48,10 +48,10 @@ impl<L: Lanes> PrimHits<L> {
 /// scalar kernel does (or taken from the flat format by [`intersect_triangle_prepared`]); a
 /// degenerate triangle (`+inf`) or a NaN one returns at once with no lane hit. The lane tests then
 /// follow the scalar's: `det² > min_det2` (NaN counts as parallel),
-/// `0 ≤ α ≤ 1`, `β ≥ 0 ∧ α + β ≤ 1`, `tmin < t < tmax`, every one false on NaN. Unlike the
-/// scalar kernel it has no early exits: whether any lane survives a test is unpredictable, and
-/// on the dragon's primary rays the mispredicted branches cost more than the work they skip
-/// (14.0 → 16.4 Mrays/s for 8-wide packets, AVX2).
+/// `0 ≤ α ≤ 1`, `β ≥ 0 ∧ α + β ≤ 1`, `tmin < t < tmax`, every one false on NaN. Like the scalar
+/// kernel it has no early exits: whether any lane survives a test is unpredictable, and on the
+/// dragon's primary rays the mispredicted branches cost more than the work they skip (14.0 → 16.4
+/// Mrays/s for 8-wide packets, AVX2).
 #[inline]
 pub fn intersect_triangle<L: Lanes>(tri: &Triangle, rays: &RayPacket<L>) -> PrimHits<L> {
     intersect_triangle_prepared(tri, tri.min_det2(), rays)
