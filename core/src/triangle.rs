@@ -102,8 +102,7 @@ impl Triangle {
         // they skip. Every comparison is false on NaN, so NaN anywhere is a miss; a ray parallel
         // to the plane fails `det² > min_det2` (`+inf` for a degenerate triangle).
         let hit = (det * det > min_det2)
-            & (a >= 0.0)
-            & (a <= 1.0)
+            & (0.0..=1.0).contains(&a)
             & (b >= 0.0)
             & (a + b <= 1.0)
             & (t > ray.tmin)
