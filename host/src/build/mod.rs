@@ -247,16 +247,13 @@ fn build_node(
         return make_leaf(ctx, prims, weight);
     }
     let (below_box, above_box) = bounds.split(split.axis, split.pos);
-    let children_split = depth + 1 < ctx.max_depth;
-    let (below, above) = partition(
-        ctx,
-        &prims,
-        events,
-        &split,
-        &below_box,
-        &above_box,
-        children_split,
-    );
+    let cut = Cut {
+        split,
+        below: below_box,
+        above: above_box,
+        children_split: depth + 1 < ctx.max_depth,
+    };
+    let (below, above) = partition(ctx, &prims, events, &cut);
     drop(prims);
     let (nb, na) = (below.0.len() as u64, above.0.len() as u64);
     let wb = if nb + na == 0 {
@@ -309,43 +306,30 @@ thread_local! {
     static SCRATCH: core::cell::RefCell<Scratch> = core::cell::RefCell::new(Scratch::default());
 }
 
-/// Classifies primitives against `split` and splits the event lists (Wald & Havran 2006, §5.2).
-/// Event lists are made only for children that may still split (`children_split` and more than
-/// `max_prims` primitives): a child bound to be a leaf needs only its primitive list.
-fn partition(
-    ctx: &Ctx,
-    prims: &[u32],
-    events: [Vec<Event>; 3],
-    split: &Split,
-    below_box: &Aabb,
-    above_box: &Aabb,
+/// A chosen split of one node: the plane, the children's boxes, and whether the children may
+/// split further (false at the depth limit).
+struct Cut {
+    split: Split,
+    below: Aabb,
+    above: Aabb,
     children_split: bool,
-) -> (Side, Side) {
-    SCRATCH.with_borrow_mut(|s| {
-        partition_with(
-            s,
-            ctx,
-            prims,
-            events,
-            split,
-            below_box,
-            above_box,
-            children_split,
-        )
-    })
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Classifies primitives against the cut and splits the event lists (Wald & Havran 2006, §5.2).
+/// Event lists are made only for children that may still split (`children_split` and more than
+/// `max_prims` primitives): a child bound to be a leaf needs only its primitive list.
+fn partition(ctx: &Ctx, prims: &[u32], events: [Vec<Event>; 3], cut: &Cut) -> (Side, Side) {
+    SCRATCH.with_borrow_mut(|s| partition_with(s, ctx, prims, events, cut))
+}
+
 fn partition_with(
     s: &mut Scratch,
     ctx: &Ctx,
     prims: &[u32],
     events: [Vec<Event>; 3],
-    split: &Split,
-    below_box: &Aabb,
-    above_box: &Aabb,
-    children_split: bool,
+    cut: &Cut,
 ) -> (Side, Side) {
+    let (split, below_box, above_box) = (&cut.split, &cut.below, &cut.above);
     let n = prims.len();
     let side = &mut s.side;
     side.clear();
@@ -409,8 +393,8 @@ fn partition_with(
     }
     let mut ev_b: [Vec<Event>; 3] = Default::default();
     let mut ev_a: [Vec<Event>; 3] = Default::default();
-    let need_b = children_split && prims_b.len() > ctx.params.max_prims;
-    let need_a = children_split && prims_a.len() > ctx.params.max_prims;
+    let need_b = cut.children_split && prims_b.len() > ctx.params.max_prims;
+    let need_a = cut.children_split && prims_a.len() > ctx.params.max_prims;
     if !need_b && !need_a {
         return ((prims_b, ev_b), (prims_a, ev_a));
     }
