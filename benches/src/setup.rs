@@ -7,7 +7,7 @@ use glam::Vec3;
 use kdray::build::{BuildParams, build};
 use kdray::flat::serialize;
 use kdray::rays::{diffuse_rays, framing_camera, primary_rays};
-use kdray_core::simd::{Lanes, RayPacket, f32x8};
+use kdray_core::simd::f32x8;
 use kdray_core::{Hit, Ray, Scene};
 use std::path::Path;
 use std::time::Instant;
@@ -58,17 +58,4 @@ impl Workload {
     }
 }
 
-/// kdray's scalar traversal over `rays`.
-pub fn trace_scalar(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
-    for (ray, hit) in rays.iter().zip(hits) {
-        *hit = scene.intersect(ray);
-    }
-}
-
-/// kdray's packet traversal, `L::WIDTH` consecutive rays a packet.
-pub fn trace_packets<L: Lanes>(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
-    for (r, h) in rays.chunks(L::WIDTH).zip(hits.chunks_mut(L::WIDTH)) {
-        let p = RayPacket::<L>::from_rays(r);
-        scene.intersect_packet(&p).write_active(&p, h);
-    }
-}
+pub use kdray::rays::{trace_packets, trace_scalar};

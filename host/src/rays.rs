@@ -7,6 +7,7 @@ use crate::error::{Error, Result};
 use glam::Vec3;
 use kdray_core::camera::{Camera, Pinhole};
 use kdray_core::sampling::{Onb, cosine_hemisphere};
+use kdray_core::simd::{Lanes, RayPacket};
 use kdray_core::{Hit, Ray, Scene};
 use std::path::Path;
 
@@ -191,4 +192,21 @@ pub fn diffuse_rays(scene: &Scene, primary: &[Ray], hits: &[Hit], seed: u64) -> 
         out.push(Ray::new(p, dir).with_range(eps, f32::INFINITY));
     }
     out
+}
+
+/// Closest hits of `rays` into `hits` (same length) by the scalar traversal.
+pub fn trace_scalar(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
+    for (ray, hit) in rays.iter().zip(hits) {
+        *hit = scene.intersect(ray);
+    }
+}
+
+/// Closest hits of `rays` into `hits` (same length, pre-filled: rays that are not finite are
+/// inactive lanes and leave their slot as it was) by packet traversal, `L::WIDTH` consecutive
+/// rays a packet.
+pub fn trace_packets<L: Lanes>(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
+    for (r, h) in rays.chunks(L::WIDTH).zip(hits.chunks_mut(L::WIDTH)) {
+        let packet = RayPacket::<L>::from_rays(r);
+        scene.intersect_packet(&packet).write_active(&packet, h);
+    }
 }

@@ -3,7 +3,7 @@
 use super::build::{BuildArgs, load_scene_words};
 use kdray::error::{Error, Result};
 use kdray::rays;
-use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
+use kdray_core::simd::{f32x4, f32x8};
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -42,21 +42,10 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], packet: u32) {
     hits.par_chunks_mut(CHUNK)
         .zip(rays.par_chunks(CHUNK))
         .for_each(|(h, r)| match packet {
-            4 => trace_packets::<f32x4>(scene, r, h),
-            8 => trace_packets::<f32x8>(scene, r, h),
-            _ => {
-                for (hit, ray) in h.iter_mut().zip(r) {
-                    *hit = scene.intersect(ray);
-                }
-            }
+            4 => rays::trace_packets::<f32x4>(scene, r, h),
+            8 => rays::trace_packets::<f32x8>(scene, r, h),
+            _ => rays::trace_scalar(scene, r, h),
         });
-}
-
-fn trace_packets<L: Lanes>(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
-    for (r, h) in rays.chunks(L::WIDTH).zip(hits.chunks_mut(L::WIDTH)) {
-        let packet = RayPacket::<L>::from_rays(r);
-        scene.intersect_packet(&packet).write_active(&packet, h);
-    }
 }
 
 fn pool(path: &Path, threads: Option<usize>) -> Result<rayon::ThreadPool> {
