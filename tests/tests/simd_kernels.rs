@@ -533,6 +533,28 @@ fn packet_from_rays<L: Lanes>() {
             assert_eq!(inv, Vec3::new(f32::INFINITY, f32::NEG_INFINITY, 2.0));
         }
     }
+    // Whole packets (the transposing path) of every mix: each lane holds its own ray, and is
+    // active exactly when the ray is finite.
+    let odd = [
+        Ray::new(Vec3::new(0.0, f32::NEG_INFINITY, 0.0), Vec3::Z),
+        Ray::new(Vec3::new(0.0, 0.0, f32::NAN), Vec3::Z),
+        Ray::new(Vec3::splat(f32::MAX), Vec3::new(1e-38, -1e-45, -0.0)).with_range(-0.0, f32::MAX),
+        Ray::new(Vec3::Y, Vec3::new(0.0, f32::INFINITY, 0.0)),
+    ];
+    let pool: Vec<Ray> = rays.iter().chain(&odd).copied().collect();
+    for start in 0..pool.len() {
+        let full: Vec<Ray> = (0..w).map(|i| pool[(start + i * 3) % pool.len()]).collect();
+        let p = RayPacket::<L>::from_rays(&full);
+        for (i, r) in full.iter().enumerate() {
+            assert_eq!(format!("{:?}", p.ray(i)), format!("{r:?}"), "lane {i}");
+            assert_eq!(p.active.bitmask() >> i & 1 == 1, r.is_finite(), "lane {i}: {r:?}");
+            assert_eq!(
+                format!("{:?}", p.inv_dir.lane(i)),
+                format!("{:?}", r.dir.recip()),
+                "lane {i}"
+            );
+        }
+    }
     // More rays than lanes: the first W are taken, all active.
     let many = vec![rays[0]; w + 3];
     let p = RayPacket::<L>::from_rays(&many);

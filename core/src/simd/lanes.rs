@@ -14,6 +14,7 @@
 //! portable fallback calls `libm::sqrtf`, the function [`crate::math::sqrt`] uses). Only
 //! [`Lanes::mul_add`] may round differently from `a * b + c`: it fuses where the build has FMA.
 
+use crate::ray::Ray;
 use core::fmt::Debug;
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 use glam::Vec3;
@@ -103,13 +104,16 @@ pub trait Lanes:
     fn splat_index(i: u32) -> Self::Index;
     /// The index lanes as an array.
     fn index_to_array(i: Self::Index) -> Self::IndexArray;
+    /// The rays `rays[..W]` as eight columns, `[ox, oy, oz, dx, dy, dz, tmin, tmax]`, lane `i` of
+    /// each from ray `i` (a register transpose); `None` when `rays` holds fewer than `W`.
+    fn ray_columns(rays: &[Ray]) -> Option<[Self; 8]>;
     /// With `self` a mask: `if_true` where it is set, else `if_false`.
     fn select_index(self, if_true: Self::Index, if_false: Self::Index) -> Self::Index;
 }
 
 /// One implementation for both widths: they differ only in names and `W`.
 macro_rules! impl_lanes {
-    ($f:ident, $u:ident, $w:literal) => {
+    ($f:ident, $u:ident, $w:literal, $columns:ident) => {
         impl Lanes for $f {
             const WIDTH: usize = $w;
             type Array = [f32; $w];
@@ -227,6 +231,10 @@ macro_rules! impl_lanes {
                 $f::all(self)
             }
 
+            #[inline(always)]
+            fn ray_columns(rays: &[Ray]) -> Option<[Self; 8]> {
+                Some($columns(rays.first_chunk::<$w>()?))
+            }
             #[inline]
             fn splat_index(i: u32) -> Self::Index {
                 $u::splat(i)
@@ -244,8 +252,30 @@ macro_rules! impl_lanes {
     };
 }
 
-impl_lanes!(f32x4, u32x4, 4);
-impl_lanes!(f32x8, u32x8, 8);
+impl_lanes!(f32x4, u32x4, 4, columns4);
+impl_lanes!(f32x8, u32x8, 8, columns8);
+
+/// A ray's eight floats in the order of [`Lanes::ray_columns`].
+#[inline(always)]
+fn ray_row(r: &Ray) -> [f32; 8] {
+    let (o, d) = (r.origin, r.dir);
+    [o.x, o.y, o.z, d.x, d.y, d.z, r.tmin, r.tmax]
+}
+
+/// Eight rays, one per row of an 8×8 matrix, transposed into columns.
+#[inline(always)]
+fn columns8(rays: &[Ray; 8]) -> [f32x8; 8] {
+    f32x8::transpose(rays.each_ref().map(|r| f32x8::new(ray_row(r))))
+}
+
+/// Four rays: two 4×4 transposes, of their first and last four floats.
+#[inline(always)]
+fn columns4(rays: &[Ray; 4]) -> [f32x4; 8] {
+    let rows = rays.each_ref().map(ray_row);
+    let lo = f32x4::transpose(rows.map(|r| f32x4::new([r[0], r[1], r[2], r[3]])));
+    let hi = f32x4::transpose(rows.map(|r| f32x4::new([r[4], r[5], r[6], r[7]])));
+    [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]]
+}
 
 /// A 3-vector of lanes, struct-of-arrays: lane `i` of `x`, `y`, `z` is vector `i`.
 ///

@@ -32,6 +32,36 @@ impl<L: Lanes> RayPacket<L> {
     /// kernels would, and the active mask keeps it out of the results.
     #[inline]
     pub fn from_rays(rays: &[Ray]) -> Self {
+        if let Some([ox, oy, oz, dx, dy, dz, tmin, tmax]) = L::ray_columns(rays) {
+            // A whole packet: a register transpose, and `Ray::is_finite` lane-wise.
+            let inf = L::splat(f32::INFINITY);
+            let finite = |x: L| x.abs().lt(inf);
+            let active = finite(ox)
+                & finite(oy)
+                & finite(oz)
+                & finite(dx)
+                & finite(dy)
+                & finite(dz)
+                & !tmin.is_nan()
+                & !tmax.is_nan();
+            let dir = Vec3x {
+                x: dx,
+                y: dy,
+                z: dz,
+            };
+            return Self {
+                origin: Vec3x {
+                    x: ox,
+                    y: oy,
+                    z: oz,
+                },
+                dir,
+                inv_dir: dir.recip(),
+                tmin,
+                tmax,
+                active,
+            };
+        }
         const ABSENT: Ray = Ray {
             origin: glam::Vec3::ZERO,
             dir: glam::Vec3::ZERO,
