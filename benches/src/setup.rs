@@ -58,4 +58,4 @@ impl Workload {
     }
 }
 
-pub use kdray::rays::{trace_packets, trace_scalar};
+pub use kdray::rays::{to_input_ids, trace_packets, trace_scalar};

@@ -23,6 +23,9 @@ pub fn serialize(
     let mut nodes: Vec<Node> = Vec::new();
     let mut indices: Vec<u32> = Vec::new();
     let depth = flatten(&tree.root, &mut nodes, &mut indices)?;
+    let input_ids = leaf_order(&mut nodes, &mut indices, geom.triangles.len());
+    let reordered = input_ids.as_ref().map(|ids| reorder(geom, ids));
+    let geom = reordered.as_ref().unwrap_or(geom);
     let n_tris = geom.triangles.len();
     let mut c = 0;
     if n_tris > 0 {
@@ -111,6 +114,14 @@ pub fn serialize(
             &mut materials.iter().copied(),
         );
     }
+    if let Some(ids) = input_ids.filter(|_| n_tris > 0) {
+        c |= contents::INPUT_IDS;
+        section(
+            &mut words,
+            header::INPUT_IDS_OFFSET,
+            &mut ids.iter().copied(),
+        );
+    }
     let total =
         u32::try_from(words.len()).map_err(|_| "scene larger than 2^32 words".to_string())?;
     words[header::MAGIC] = format::MAGIC;
@@ -131,6 +142,73 @@ pub fn serialize(
     }
     words[header::BUILD_MS] = build_ms.to_bits();
     Ok(words)
+}
+
+/// Renumbers the triangles (ids below `n_tris`; spheres keep theirs) in the order the leaves
+/// first reference them, depth first, rewriting the leaves; returns each new id's input id, or
+/// `None` when that order is the input order. See the input-ids section in
+/// [`kdray_core::format`].
+fn leaf_order(nodes: &mut [Node], indices: &mut [u32], n_tris: usize) -> Option<Vec<u32>> {
+    const NONE: u32 = u32::MAX;
+    let mut new_id = vec![NONE; n_tris];
+    let mut input_ids = Vec::with_capacity(n_tris);
+    let mut renumber = |p: u32| -> u32 {
+        match new_id.get_mut(p as usize) {
+            Some(id) => {
+                if *id == NONE {
+                    *id = input_ids.len() as u32;
+                    input_ids.push(p);
+                }
+                *id
+            }
+            None => p, // a sphere
+        }
+    };
+    for node in nodes.iter_mut().filter(|n| n.is_leaf()) {
+        match node.prim_count() {
+            0 => {}
+            1 => *node = Node::leaf(1, renumber(node.payload())),
+            n => {
+                let start = node.payload() as usize;
+                for p in &mut indices[start..start + n as usize] {
+                    *p = renumber(*p);
+                }
+            }
+        }
+    }
+    // Triangles no leaf references (degenerate ones) go last, in input order.
+    for p in 0..n_tris as u32 {
+        renumber(p);
+    }
+    let identity = input_ids.iter().enumerate().all(|(i, &p)| i as u32 == p);
+    (!identity).then_some(input_ids)
+}
+
+/// `geom` with its triangles (and their normals, texture coordinates and materials) in the order
+/// `input_ids` gives.
+fn reorder(geom: &Geometry, input_ids: &[u32]) -> Geometry {
+    let pick = |i: &u32| *i as usize;
+    Geometry {
+        triangles: input_ids.iter().map(|i| geom.triangles[pick(i)]).collect(),
+        normals: geom
+            .normals
+            .as_ref()
+            .map(|n| input_ids.iter().map(|i| n[pick(i)]).collect()),
+        uvs: geom
+            .uvs
+            .as_ref()
+            .map(|u| input_ids.iter().map(|i| u[pick(i)]).collect()),
+        tri_materials: if geom.tri_materials.is_empty() {
+            Vec::new()
+        } else {
+            input_ids
+                .iter()
+                .map(|i| geom.tri_materials.get(pick(i)).copied().unwrap_or(0))
+                .collect()
+        },
+        spheres: geom.spheres.clone(),
+        sphere_materials: geom.sphere_materials.clone(),
+    }
 }
 
 /// Appends `node`'s subtree in pre-order; returns its depth.

@@ -194,7 +194,19 @@ pub fn diffuse_rays(scene: &Scene, primary: &[Ray], hits: &[Hit], seed: u64) -> 
     out
 }
 
-/// Closest hits of `rays` into `hits` (same length) by the scalar traversal.
+/// Rewrites each hit's primitive from storage order to input order ([`Scene::input_id`]), the
+/// ids the hits file reports. The tracing functions here report storage order, the ids the
+/// scene's own accessors take (e.g. [`diffuse_rays`]).
+pub fn to_input_ids(scene: &Scene, hits: &mut [Hit]) {
+    if scene.reorders_triangles() {
+        for h in hits {
+            h.prim = scene.input_id(h.prim);
+        }
+    }
+}
+
+/// Closest hits of `rays` into `hits` (same length) by the scalar traversal; primitives in
+/// storage order (see [`to_input_ids`]).
 pub fn trace_scalar(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
     for (ray, hit) in rays.iter().zip(hits) {
         *hit = scene.intersect(ray);

@@ -131,6 +131,61 @@ fn build_info_trace_round_trip() {
     }
 }
 
+/// The builder stores triangles in leaf order; hits must still name them by their input index,
+/// with barycentrics relative to their input vertices.
+#[test]
+fn hits_report_input_order() {
+    let d = dir("order");
+    let mesh = d.join("row.tri");
+    let n = 64;
+    // Triangle i sits at x = slot(i), a scrambled position, so leaf order differs from input
+    // order; vertex order alternates so that (u, v) depends on it.
+    let slot = |i: usize| ((i * 37) % n) as f32 * 3.0;
+    let tris: Vec<[f32; 9]> = (0..n)
+        .map(|i| {
+            let x = slot(i);
+            let (a, b, c) = ([x, 0.0, 0.0], [x + 2.0, 0.0, 0.0], [x, 2.0, 0.0]);
+            let [p, q, r] = if i % 2 == 0 { [a, b, c] } else { [b, c, a] };
+            [p[0], p[1], p[2], q[0], q[1], q[2], r[0], r[1], r[2]]
+        })
+        .collect();
+    tri_file(&mesh, &tris);
+    let kdt = d.join("row.kdt");
+    assert!(kdray(&["build", s(&mesh), "-o", s(&kdt)]).status.success());
+    // One ray per triangle, in input order, at the point with barycentrics (0.25, 0.5).
+    let rays: Vec<[f32; 8]> = tris
+        .iter()
+        .map(|t| {
+            let at = |k: usize| t[k] + 0.25 * (t[3 + k] - t[k]) + 0.5 * (t[6 + k] - t[k]);
+            [at(0), at(1), 4.0, 0.0, 0.0, -1.0, 0.0, f32::INFINITY]
+        })
+        .collect();
+    let rays_file = d.join("rays.bin");
+    std::fs::write(&rays_file, ray_bytes(&rays)).unwrap();
+    let hits = d.join("hits.bin");
+    for packet in ["1", "4", "8"] {
+        let out = kdray(&[
+            "trace",
+            s(&kdt),
+            "--rays",
+            s(&rays_file),
+            "--out",
+            s(&hits),
+            "--packet",
+            packet,
+        ]);
+        assert!(out.status.success());
+        let b = std::fs::read(&hits).unwrap();
+        let f = |i: usize| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
+        let u = |i: usize| u32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
+        for i in 0..n {
+            assert_eq!(u(4 * i + 1), i as u32, "packet {packet}: ray {i}");
+            assert_eq!(f(4 * i), 4.0);
+            assert!((f(4 * i + 2) - 0.25).abs() < 1e-5 && (f(4 * i + 3) - 0.5).abs() < 1e-5);
+        }
+    }
+}
+
 /// Asserts exit code 1 and a message naming `path`.
 fn assert_input_error(out: &Output, path: &Path) {
     let err = String::from_utf8_lossy(&out.stderr);

@@ -10,19 +10,25 @@ use kdray_core::node::Node;
 use kdray_core::{Ray, Scene};
 use proptest::prelude::*;
 
-/// A small valid scene: a fan of triangles and two spheres, built with the real builder.
+/// A fan of overlapping triangles, scrambled along x so that the builder's leaf order is not
+/// the input order.
+fn fan() -> Vec<[Vec3; 3]> {
+    (0..12)
+        .map(|i| {
+            let a = (i * 5 % 12) as f32 * 0.5;
+            [
+                Vec3::new(a, 0.0, 0.0),
+                Vec3::new(a + 1.0, 0.0, 0.3),
+                Vec3::new(a, 1.0, -0.2),
+            ]
+        })
+        .collect()
+}
+
+/// A small valid scene: [`fan`] and two spheres, built with the real builder.
 fn valid_words() -> Vec<u32> {
-    let mut triangles = Vec::new();
-    for i in 0..12 {
-        let a = i as f32 * 0.5;
-        triangles.push([
-            Vec3::new(a, 0.0, 0.0),
-            Vec3::new(a + 1.0, 0.0, 0.3),
-            Vec3::new(a, 1.0, -0.2),
-        ]);
-    }
     let geom = Geometry {
-        triangles,
+        triangles: fan(),
         spheres: vec![
             (Vec3::new(2.0, 3.0, 0.0), 0.5),
             (Vec3::new(-1.0, 0.0, 1.0), 0.25),
@@ -64,6 +70,33 @@ fn valid_scene_is_accepted_and_traced() {
     let hit = scene.intersect(&Ray::new(Vec3::new(2.0, 3.0, 5.0), Vec3::NEG_Z));
     assert_eq!(hit.prim, 12);
     assert!((hit.t - 4.5).abs() < 1e-5);
+    // Triangles are stored in leaf order; the input ids are a permutation back to input order.
+    assert!(scene.contents() & contents::INPUT_IDS != 0);
+    let mut ids: Vec<u32> = (0..12).map(|i| scene.input_id(i)).collect();
+    assert_ne!(ids, (0..12).collect::<Vec<_>>());
+    ids.sort_unstable();
+    assert_eq!(ids, (0..12).collect::<Vec<_>>());
+    assert_eq!(
+        (scene.input_id(12), scene.input_id(u32::MAX)),
+        (12, u32::MAX)
+    );
+    // Each hit's input id names the input triangle a brute-force loop over the input finds.
+    for k in 0..40 {
+        let ray = Ray::new(Vec3::new(0.1 + k as f32 * 0.15, 0.3, 5.0), Vec3::NEG_Z);
+        let hit = scene.intersect(&ray);
+        let nearest = fan()
+            .iter()
+            .enumerate()
+            .filter_map(|(i, v)| {
+                let t = kdray_core::Triangle::from_vertices(v[0], v[1], v[2]).intersect(&ray)?;
+                Some((t.0, i as u32))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        assert_eq!(
+            nearest.map(|n| n.1),
+            hit.is_hit().then(|| scene.input_id(hit.prim))
+        );
+    }
 }
 
 #[test]
@@ -189,6 +222,15 @@ fn each_corruption_has_its_own_error() {
         corrupt(&|w| w[indices] = 10_000),
         Err(FormatError::BadPrimitive { .. })
     ));
+    let ids = good[header::INPUT_IDS_OFFSET] as usize;
+    assert_eq!(
+        corrupt(&|w| w[ids + 3] = 12),
+        Err(FormatError::BadInputId { triangle: 3 })
+    );
+    assert_eq!(
+        corrupt(&|w| w[header::CONTENTS] &= !contents::INPUT_IDS),
+        Err(FormatError::BadContents)
+    );
 }
 
 #[test]

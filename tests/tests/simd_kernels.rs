@@ -547,7 +547,11 @@ fn packet_from_rays<L: Lanes>() {
         let p = RayPacket::<L>::from_rays(&full);
         for (i, r) in full.iter().enumerate() {
             assert_eq!(format!("{:?}", p.ray(i)), format!("{r:?}"), "lane {i}");
-            assert_eq!(p.active.bitmask() >> i & 1 == 1, r.is_finite(), "lane {i}: {r:?}");
+            assert_eq!(
+                p.active.bitmask() >> i & 1 == 1,
+                r.is_finite(),
+                "lane {i}: {r:?}"
+            );
             assert_eq!(
                 format!("{:?}", p.inv_dir.lane(i)),
                 format!("{:?}", r.dir.recip()),

@@ -8,7 +8,7 @@
 //! the same `t` do not count).
 
 use kdray_benches::peer_bvh::BvhPeer;
-use kdray_benches::setup::{Workload, trace_packets, trace_scalar};
+use kdray_benches::setup::{Workload, to_input_ids, trace_packets, trace_scalar};
 use kdray_core::simd::{f32x4, f32x8};
 use kdray_core::{Hit, Ray};
 use std::path::PathBuf;
@@ -106,13 +106,16 @@ fn main() {
         rows.push(row);
     };
     run("kdray scalar", Some(kd_build), &mut |r, h| {
-        trace_scalar(&scene, r, h)
+        trace_scalar(&scene, r, h);
+        to_input_ids(&scene, h);
     });
     run("kdray packet 4", None, &mut |r, h| {
-        trace_packets::<f32x4>(&scene, r, h)
+        trace_packets::<f32x4>(&scene, r, h);
+        to_input_ids(&scene, h);
     });
     run("kdray packet 8", None, &mut |r, h| {
-        trace_packets::<f32x8>(&scene, r, h)
+        trace_packets::<f32x8>(&scene, r, h);
+        to_input_ids(&scene, h);
     });
 
     let start = Instant::now();

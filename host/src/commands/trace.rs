@@ -69,7 +69,11 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
     let mut best = f64::INFINITY;
     for _ in 0..args.repeat {
         let start = Instant::now();
-        pool.install(|| trace_all(&scene, &rays, &mut hits, args.packet));
+        pool.install(|| {
+            trace_all(&scene, &rays, &mut hits, args.packet);
+            hits.par_chunks_mut(CHUNK)
+                .for_each(|h| rays::to_input_ids(&scene, h));
+        });
         best = best.min(start.elapsed().as_secs_f64());
     }
     std::fs::write(&args.out, rays::encode_hits(&hits)).map_err(|e| Error::io(&args.out, e))?;
