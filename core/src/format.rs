@@ -207,9 +207,9 @@ pub struct Scene<'a> {
     build_ms: f32,
     depth: u32,
     bounds: [Vec3; 2],
-    nodes: &'a [u32],
+    nodes: &'a [[u32; stride::NODE]],
     indices: &'a [u32],
-    tris: &'a [f32],
+    tris: &'a [[f32; stride::TRIANGLE]],
     spheres: &'a [f32],
     normals: &'a [f32],
     uvs: &'a [f32],
@@ -372,9 +372,9 @@ impl<'a> Scene<'a> {
             build_ms: f32::from_bits(h(header::BUILD_MS)),
             depth: h(header::DEPTH),
             bounds,
-            nodes: words_of(0),
+            nodes: words_of(0).as_chunks().0,
             indices: words_of(1),
-            tris: floats_of(2),
+            tris: floats_of(2).as_chunks().0,
             spheres: floats_of(3),
             normals: floats_of(4),
             uvs: floats_of(5),
@@ -382,7 +382,7 @@ impl<'a> Scene<'a> {
             input_ids: words_of(7),
         };
         let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
-        let triangles_ok = scene.tris.chunks_exact(stride::TRIANGLE).all(|t| {
+        let triangles_ok = scene.tris.iter().all(|t| {
             let tri = Triangle {
                 v0: Vec3::new(t[0], t[1], t[2]),
                 e1: Vec3::new(t[3], t[4], t[5]),
@@ -512,12 +512,12 @@ impl<'a> Scene<'a> {
 
     #[inline]
     pub fn node_count(&self) -> u32 {
-        (self.nodes.len() / stride::NODE) as u32
+        self.nodes.len() as u32
     }
 
     #[inline]
     pub fn tri_count(&self) -> u32 {
-        (self.tris.len() / stride::TRIANGLE) as u32
+        self.tris.len() as u32
     }
 
     #[inline]
@@ -535,8 +535,7 @@ impl<'a> Scene<'a> {
     /// for a child or `0`.
     #[inline(always)]
     pub fn node(&self, i: u32) -> Node {
-        let i = i as usize * stride::NODE;
-        Node::from_words([self.nodes[i], self.nodes[i + 1]])
+        Node::from_words(self.nodes[i as usize])
     }
 
     /// The primitive ids of a leaf.
@@ -561,7 +560,7 @@ impl<'a> Scene<'a> {
     /// Triangle `i` and its stored [`Triangle::min_det2`].
     #[inline(always)]
     pub fn prepared_triangle(&self, i: u32) -> (Triangle, f32) {
-        let s = &self.tris[i as usize * stride::TRIANGLE..][..stride::TRIANGLE];
+        let s = &self.tris[i as usize];
         let tri = Triangle {
             v0: Vec3::new(s[0], s[1], s[2]),
             e1: Vec3::new(s[3], s[4], s[5]),
