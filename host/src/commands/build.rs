@@ -6,6 +6,7 @@ use kdray::build::{BuildParams, PROGRESS_TOTAL};
 use kdray::error::{Error, Result};
 use kdray::{Geometry, flat, load};
 use kdray_core::Scene;
+use kdray_core::format::contents;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -127,7 +128,27 @@ pub fn info(file: &Path) -> Result<()> {
     println!("file            {}", file.display());
     println!("triangles       {}", scene.tri_count());
     println!("spheres         {}", scene.sphere_count());
-    println!("contents        {:#07b}", scene.contents());
+    let names = [
+        (contents::TRIANGLES, "triangles"),
+        (contents::SPHERES, "spheres"),
+        (contents::NORMALS, "normals"),
+        (contents::UVS, "uvs"),
+        (contents::MATERIALS, "materials"),
+        (
+            contents::INPUT_IDS,
+            "input-ids (triangles stored in leaf order)",
+        ),
+    ];
+    let present: Vec<&str> = names
+        .iter()
+        .filter(|(bit, _)| scene.contents() & bit != 0)
+        .map(|(_, name)| *name)
+        .collect();
+    println!(
+        "contents        {:#08b} {}",
+        scene.contents(),
+        present.join(", ")
+    );
     println!("bounds          [{lo}] .. [{hi}]");
     println!("nodes           {}", s.nodes);
     println!("leaves          {}", s.leaves);
