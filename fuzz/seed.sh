@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Seeds the fuzz corpus with small valid scenes built by the kdray CLI.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+mkdir -p fuzz/corpus/from_words
+cargo run -q --release -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default.kdt
+tmp=$(mktemp -d)
+python3 - "$tmp/fan.tri" <<'PY'
+import struct, sys
+tris = []
+for i in range(12):
+    a = (i * 5 % 12) * 0.5
+    tris.append([a, 0, 0, a + 1, 0, 0.3, a, 1, -0.2])
+with open(sys.argv[1], "wb") as f:
+    f.write(struct.pack("<I", len(tris)))
+    for t in tris:
+        f.write(struct.pack("<9f", *t))
+PY
+cargo run -q --release -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan.kdt
+rm -rf "$tmp"
