@@ -298,3 +298,52 @@ proptest! {
         }
     }
 }
+
+/// Leaf order moves every per-triangle section with its triangle: stored triangle `k` has the
+/// vertices, normals, texture coordinates and material of input triangle `input_id(k)`.
+#[test]
+fn per_triangle_sections_follow_the_leaf_order() {
+    let triangles = fan();
+    let n = triangles.len();
+    let normals: Vec<[Vec3; 3]> = (0..n)
+        .map(|i| [Vec3::new(i as f32, 0.0, 1.0).normalize(), Vec3::Z, Vec3::Y])
+        .collect();
+    let uvs: Vec<[glam::Vec2; 3]> = (0..n)
+        .map(|i| {
+            [
+                glam::Vec2::new(i as f32, 0.5),
+                glam::Vec2::ZERO,
+                glam::Vec2::ONE,
+            ]
+        })
+        .collect();
+    let geom = Geometry {
+        triangles: triangles.clone(),
+        normals: Some(normals.clone()),
+        uvs: Some(uvs.clone()),
+        tri_materials: (0..n as u32).map(|i| i % 5).collect(),
+        spheres: vec![(Vec3::new(2.0, 3.0, 0.0), 0.5)],
+        sphere_materials: vec![7],
+    };
+    let params = BuildParams {
+        parallel: false,
+        ..BuildParams::default()
+    };
+    let words = serialize(&build(&geom, &params, None).unwrap(), &geom, 1.0).unwrap();
+    let scene = Scene::from_words(&words).unwrap();
+    assert!(scene.reorders_triangles());
+    for k in 0..n as u32 {
+        let i = scene.input_id(k) as usize;
+        let v = triangles[i];
+        let want = kdray_core::Triangle::from_vertices(v[0], v[1], v[2]);
+        assert_eq!(scene.triangle(k), want, "stored {k} = input {i}");
+        assert_eq!(scene.vertex_normals(k), Some(normals[i]));
+        assert_eq!(scene.vertex_uvs(k), Some(uvs[i]));
+        assert_eq!(scene.material(k), i as u32 % 5);
+    }
+    assert_eq!(
+        scene.material(n as u32),
+        7,
+        "spheres keep their ids and materials"
+    );
+}
