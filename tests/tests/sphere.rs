@@ -185,6 +185,27 @@ fn check_no_nan(s: &Sphere, ray: &Ray) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// The worst |Δt| against f64 of the stable and the textbook sphere forms over many rays, and how
+/// often the textbook form missed outright.
+#[derive(Default)]
+struct FarErrors {
+    worst_stable: f64,
+    worst_textbook: f64,
+    textbook_misses: u32,
+}
+
+impl FarErrors {
+    fn add(&mut self, ray: &Ray, s: &Sphere) {
+        let (want, _) = f64ref::sphere_roots(ray.origin, ray.dir, s.center, s.radius).unwrap();
+        let t = s.intersect(ray).expect("the stable form lost the sphere");
+        self.worst_stable = self.worst_stable.max((f64::from(t) - want).abs());
+        match textbook_near_root(ray, s) {
+            Some(t) => self.worst_textbook = self.worst_textbook.max((f64::from(t) - want).abs()),
+            None => self.textbook_misses += 1,
+        }
+    }
+}
+
 /// Radius 1 at distance 10⁴ along an axis, lines across the whole disc (impact parameter up to
 /// 0.9 R): the stable form keeps |Δt| ≤ 1e-3·R — measured 4.9e-4, i.e. half an f32 ulp of
 /// t ≈ 10⁴ (2⁻¹⁰), the best f32 can represent. The textbook quadratic of equation (32) computes
@@ -197,7 +218,7 @@ fn sphere_far_small_sphere_is_kept_by_the_stable_form() {
         radius: 1.0,
     };
     let mut rng = Lcg::new(1);
-    let (mut worst_stable, mut worst_textbook, mut textbook_misses, mut n) = (0.0f64, 0.0f64, 0, 0);
+    let (mut e, mut n) = (FarErrors::default(), 0);
     while n < 2000 {
         let (x, y) = (rng.next_f32() * 1.8 - 0.9, rng.next_f32() * 1.8 - 0.9);
         if x * x + y * y > 0.81 {
@@ -205,14 +226,13 @@ fn sphere_far_small_sphere_is_kept_by_the_stable_form() {
         }
         n += 1;
         let ray = Ray::new(Vec3::new(x, y, 0.0), Vec3::Z);
-        let (want, _) = f64ref::sphere_roots(ray.origin, ray.dir, s.center, s.radius).unwrap();
-        let t = s.intersect(&ray).expect("the stable form lost the sphere");
-        worst_stable = worst_stable.max((f64::from(t) - want).abs());
-        match textbook_near_root(&ray, &s) {
-            Some(t) => worst_textbook = worst_textbook.max((f64::from(t) - want).abs()),
-            None => textbook_misses += 1,
-        }
+        e.add(&ray, &s);
     }
+    let FarErrors {
+        worst_stable,
+        worst_textbook,
+        textbook_misses,
+    } = e;
     eprintln!(
         "far sphere: stable max |Δt| = {worst_stable:e}; textbook max |Δt| = {worst_textbook:e}, \
          misses {textbook_misses}/{n}"
@@ -242,7 +262,7 @@ fn sphere_far_small_sphere_in_any_direction() {
             break v.normalize();
         }
     };
-    let (mut worst_stable, mut worst_textbook, mut textbook_misses) = (0.0f64, 0.0f64, 0);
+    let mut e = FarErrors::default();
     for _ in 0..2000 {
         let center = unit() * 1.0e4;
         let aim = unit() * 0.9 * unit().x.abs();
@@ -251,14 +271,13 @@ fn sphere_far_small_sphere_in_any_direction() {
             radius: 1.0,
         };
         let ray = Ray::new(Vec3::ZERO, (center + aim).normalize());
-        let (want, _) = f64ref::sphere_roots(ray.origin, ray.dir, s.center, s.radius).unwrap();
-        let t = s.intersect(&ray).expect("the stable form lost the sphere");
-        worst_stable = worst_stable.max((f64::from(t) - want).abs());
-        match textbook_near_root(&ray, &s) {
-            Some(t) => worst_textbook = worst_textbook.max((f64::from(t) - want).abs()),
-            None => textbook_misses += 1,
-        }
+        e.add(&ray, &s);
     }
+    let FarErrors {
+        worst_stable,
+        worst_textbook,
+        textbook_misses,
+    } = e;
     eprintln!(
         "far sphere, any direction: stable max |Δt| = {worst_stable:e}; textbook max |Δt| = \
          {worst_textbook:e}, misses {textbook_misses}/2000"
