@@ -204,6 +204,15 @@ impl FarErrors {
             None => self.textbook_misses += 1,
         }
     }
+
+    /// Prints the figures (run with `--nocapture` to see them) and hands them back.
+    fn report(self, what: &str, rays: u32) -> Self {
+        eprintln!(
+            "{what}: stable max |Δt| = {:e}; textbook max |Δt| = {:e}, misses {}/{rays}",
+            self.worst_stable, self.worst_textbook, self.textbook_misses
+        );
+        self
+    }
 }
 
 /// Radius 1 at distance 10⁴ along an axis, lines across the whole disc (impact parameter up to
@@ -232,11 +241,7 @@ fn sphere_far_small_sphere_is_kept_by_the_stable_form() {
         worst_stable,
         worst_textbook,
         textbook_misses,
-    } = e;
-    eprintln!(
-        "far sphere: stable max |Δt| = {worst_stable:e}; textbook max |Δt| = {worst_textbook:e}, \
-         misses {textbook_misses}/{n}"
-    );
+    } = e.report("far sphere", n);
     assert!(worst_stable <= 1e-3, "stable form: |Δt| = {worst_stable}");
     // The case is stiff: the textbook form is at least 100 times worse, or misses outright.
     assert!(
@@ -277,11 +282,7 @@ fn sphere_far_small_sphere_in_any_direction() {
         worst_stable,
         worst_textbook,
         textbook_misses,
-    } = e;
-    eprintln!(
-        "far sphere, any direction: stable max |Δt| = {worst_stable:e}; textbook max |Δt| = \
-         {worst_textbook:e}, misses {textbook_misses}/2000"
-    );
+    } = e.report("far sphere, any direction", 2000);
     let ulp = f64::from(f32::EPSILON) * 8192.0; // f32 spacing in [8192, 16384)
     assert!(
         worst_stable <= 4.0 * ulp,
