@@ -23,6 +23,7 @@
 //! - [`camera`]: pinhole, the seed's fisheye and parallel cameras.
 //! - [`format`], [`node`]: the flat scene format and its validation.
 //! - [`traverse`]: scalar closest-hit and any-hit traversal.
+//! - [`render`]: the render kernel, a path tracer writing into a caller's buffer.
 //! - [`simd`]: 4- and 8-wide ray packets, the lane trait they are generic over, and the packet
 //!   kernels, which match the scalar ones lane by lane.
 //!
@@ -40,6 +41,7 @@ pub mod math;
 pub mod node;
 pub mod optics;
 pub mod ray;
+pub mod render;
 pub mod sampling;
 pub mod simd;
 pub mod sphere;

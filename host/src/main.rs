@@ -20,6 +20,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Path-trace a scene (.toml; without one, the built-in default scene) into a PNG
+    Render(commands::RenderArgs),
     /// Build a kd-tree from a mesh (.ply, .ply.gz, .obj, .tri) or a scene (.toml) into a .kdt file.
     Build {
         input: PathBuf,
@@ -51,6 +53,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Render(args) => commands::render(&args),
         Command::Build { input, out, build } => commands::build(&input, &out, &build),
         Command::Info { file } => commands::info(&file),
         Command::Trace(args) => commands::trace(&args),

@@ -48,7 +48,7 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], packet: u32) {
         });
 }
 
-fn pool(path: &Path, threads: Option<usize>) -> Result<rayon::ThreadPool> {
+pub(super) fn pool(path: &Path, threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
         if n == 0 {
