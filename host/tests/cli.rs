@@ -260,3 +260,95 @@ fn usage_errors_exit_2() {
         Some(2)
     );
 }
+
+/// Decodes an 8-bit RGB PNG: (width, height, bytes).
+fn read_png(path: &Path) -> (u32, u32, Vec<u8>) {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    assert_eq!(info.bit_depth, png::BitDepth::Eight);
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+#[test]
+fn render_draws_the_default_scene_the_right_way_round() {
+    let d = dir("render-default");
+    let out = d.join("room.png");
+    let o = kdray(&["render", "-o", s(&out), "--size", "32x32", "--spp", "4"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let line = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        line.starts_with("wrote ") && line.contains("32x32, 4 spp"),
+        "{line}"
+    );
+    let (w, h, px) = read_png(&out);
+    assert_eq!((w, h), (32, 32));
+    // The red wall is on the left, the green one on the right (x = -1 and x = +1, seen from +z).
+    let mean = |x0: usize, x1: usize, c: usize| {
+        let mut sum = 0.0;
+        for y in 0..h as usize {
+            for x in x0..x1 {
+                sum += f64::from(px[(y * w as usize + x) * 3 + c]);
+            }
+        }
+        sum / ((x1 - x0) * h as usize) as f64
+    };
+    let (left_r, left_g) = (mean(1, 4, 0), mean(1, 4, 1));
+    let (right_r, right_g) = (mean(28, 31, 0), mean(28, 31, 1));
+    assert!(left_r > 1.3 * left_g, "left wall r {left_r} g {left_g}");
+    assert!(
+        right_g > 1.3 * right_r,
+        "right wall r {right_r} g {right_g}"
+    );
+}
+
+#[test]
+fn render_is_the_same_on_one_thread_and_two() {
+    let d = dir("render-threads");
+    let (a, b) = (d.join("a.png"), d.join("b.png"));
+    for (out, threads) in [(&a, "1"), (&b, "2")] {
+        let args = ["render", "-o", s(out), "--size", "16x16", "--spp", "2"];
+        let o = kdray(&[&args[..], &["--threads", threads]].concat());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    assert_eq!(read_png(&a), read_png(&b));
+}
+
+#[test]
+fn render_errors_name_the_file_and_usage_errors_exit_2() {
+    let d = dir("render-errors");
+    let fails = |args: &[&str], needle: &str| {
+        let o = kdray(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    };
+    let jpg = d.join("out.jpg");
+    fails(&["render", "-o", s(&jpg)], "out.jpg");
+    let missing = d.join("missing.toml");
+    fails(
+        &["render", s(&missing), "-o", s(&d.join("m.png"))],
+        "missing.toml",
+    );
+    let deep = d.join("deep.toml");
+    std::fs::write(
+        &deep,
+        "[camera]\nkind = \"pinhole\"\neye = [0, 0, 3]\ntarget = [0, 0, 0]\n\
+         [render]\nmax_depth = 5000\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n",
+    )
+    .unwrap();
+    fails(
+        &["render", s(&deep), "-o", s(&d.join("deep.png"))],
+        "deep.toml",
+    );
+    for args in [
+        &["render", "--spp", "0"][..],
+        &["render", "--size", "0x4"],
+        &["render", "--size", "big"],
+    ] {
+        assert_eq!(kdray(args).status.code(), Some(2), "{args:?}");
+    }
+}
