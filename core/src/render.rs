@@ -26,7 +26,7 @@ use crate::format::Scene;
 use crate::math;
 use crate::optics;
 use crate::ray::{Hit, Ray};
-use crate::sampling::{Onb, cosine_hemisphere};
+use crate::sampling::{Onb, Pcg32 as Rng, cosine_hemisphere};
 use crate::simd::{RayPacket, f32x8};
 use crate::triangle::shading_normal;
 use core::f32::consts::PI;
@@ -356,39 +356,4 @@ fn normals(scene: &Scene, hit: &Hit, p: Vec3) -> Option<(Vec3, Vec3)> {
         None => geometric,
     };
     Some((geometric, shading))
-}
-
-/// PCG32 (O'Neill 2014, `pcg32_random_r`): small, fast and good enough for sampling; one stream
-/// per sample, so samples are independent of evaluation order.
-#[derive(Clone, Copy, Debug)]
-struct Rng {
-    state: u64,
-    inc: u64,
-}
-
-impl Rng {
-    fn new(seed: u64, stream: u64) -> Self {
-        let mut rng = Self {
-            state: 0,
-            inc: (stream << 1) | 1,
-        };
-        rng.next_u32();
-        rng.state = rng.state.wrapping_add(seed);
-        rng.next_u32();
-        rng
-    }
-
-    fn next_u32(&mut self) -> u32 {
-        let old = self.state;
-        self.state = old
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(self.inc);
-        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-        xorshifted.rotate_right((old >> 59) as u32)
-    }
-
-    /// Uniform in `[0, 1)`: the top 24 bits.
-    fn next_f32(&mut self) -> f32 {
-        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
-    }
 }

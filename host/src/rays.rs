@@ -6,7 +6,7 @@
 use crate::error::{Error, Result};
 use glam::Vec3;
 use kdray_core::camera::{Camera, Pinhole};
-use kdray_core::sampling::{Onb, cosine_hemisphere};
+use kdray_core::sampling::{Onb, Pcg32, cosine_hemisphere};
 use kdray_core::simd::{Lanes, RayPacket};
 use kdray_core::{Hit, Ray, Scene};
 use std::path::Path;
@@ -131,40 +131,6 @@ pub fn primary_rays(camera: &impl Camera, width: u32, height: u32) -> Vec<Ray> {
         }
     }
     rays
-}
-
-/// A small, fast, reproducible generator (PCG32, O'Neill 2014) for sampling ray sets.
-#[derive(Clone, Debug)]
-pub struct Pcg32 {
-    state: u64,
-    inc: u64,
-}
-
-impl Pcg32 {
-    pub fn new(seed: u64, stream: u64) -> Self {
-        let mut rng = Self {
-            state: 0,
-            inc: (stream << 1) | 1,
-        };
-        rng.next_u32();
-        rng.state = rng.state.wrapping_add(seed);
-        rng.next_u32();
-        rng
-    }
-
-    pub fn next_u32(&mut self) -> u32 {
-        let old = self.state;
-        self.state = old
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(self.inc);
-        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-        xorshifted.rotate_right((old >> 59) as u32)
-    }
-
-    /// Uniform in `[0, 1)`.
-    pub fn next_f32(&mut self) -> f32 {
-        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
-    }
 }
 
 /// The protocol's secondary rays: one cosine-weighted bounce from each primary hit, around the
