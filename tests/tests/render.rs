@@ -40,6 +40,16 @@ fn floor(half: f32, height: f32, material: u32) -> (Vec<[Vec3; 3]>, Vec<u32>) {
     (vec![[a, b, c], [a, c, d]], vec![material; 2])
 }
 
+/// A floor of material 0 reaching far beyond the view of [`looking_down`].
+fn wide_floor() -> Geometry {
+    let (triangles, tri_materials) = floor(100.0, 0.0, 0);
+    Geometry {
+        triangles,
+        tri_materials,
+        ..Geometry::default()
+    }
+}
+
 /// Renders the whole image in one call, with the lights `render::emitters` finds.
 fn render_image(
     geom: &Geometry,
@@ -99,12 +109,7 @@ fn emitting_sphere_furnace_is_exact() {
 /// escapes to the sky, so each sample is exactly `ρB` where the floor is seen.
 #[test]
 fn white_sky_over_a_diffuse_floor_is_albedo_times_sky() {
-    let (triangles, tri_materials) = floor(100.0, 0.0, 0);
-    let geom = Geometry {
-        triangles,
-        tri_materials,
-        ..Geometry::default()
-    };
+    let geom = wide_floor();
     let image = render_image(
         &geom,
         &looking_down(),
@@ -130,12 +135,7 @@ fn white_sky_over_a_diffuse_floor_is_albedo_times_sky() {
 /// A mirror floor reflects the sky once: `albedo · B`, exactly, in every pixel.
 #[test]
 fn mirror_reflects_the_sky_tinted_by_its_albedo() {
-    let (triangles, tri_materials) = floor(100.0, 0.0, 0);
-    let geom = Geometry {
-        triangles,
-        tri_materials,
-        ..Geometry::default()
-    };
+    let geom = wide_floor();
     let image = render_image(
         &geom,
         &looking_down(),
