@@ -569,6 +569,17 @@ impl<'a> Scene<'a> {
         (tri, s[9])
     }
 
+    /// The geometric normal of primitive `prim` at a point `p` on it, not normalized: `e1 × e2`
+    /// for a triangle ([`Triangle::geometric_normal`]), `(p − c) / R` for a sphere
+    /// ([`Sphere::normal`]). Zero for a degenerate triangle.
+    #[inline]
+    pub fn geometric_normal(&self, prim: u32, p: Vec3) -> Vec3 {
+        match prim.checked_sub(self.tri_count()) {
+            None => self.triangle(prim).geometric_normal(),
+            Some(sphere) => self.sphere(sphere).normal(p),
+        }
+    }
+
     /// Sphere `i`, counted among spheres (`i < sphere_count`), not among all primitives.
     #[inline(always)]
     pub fn sphere(&self, i: u32) -> Sphere {

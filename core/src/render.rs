@@ -26,7 +26,7 @@ use crate::format::Scene;
 use crate::math;
 use crate::optics;
 use crate::ray::{Hit, Ray};
-use crate::sampling::{Onb, Pcg32 as Rng, cosine_hemisphere};
+use crate::sampling::{Onb, Pcg32, cosine_hemisphere};
 use crate::simd::{RayPacket, f32x8};
 use crate::triangle::shading_normal;
 use core::f32::consts::PI;
@@ -126,19 +126,15 @@ pub fn render_rows<C: Camera>(
     if !out.len().is_multiple_of(w as usize) || first_row as usize + rows > h as usize {
         return Err(RenderError::BufferSize);
     }
+    let ctx = Context {
+        scene,
+        materials,
+        lights,
+        settings,
+    };
     for (k, pixel) in out.iter_mut().enumerate() {
         let (x, y) = ((k % w as usize) as u32, first_row + (k / w as usize) as u32);
-        let sum = render_pixel(
-            &Context {
-                scene,
-                materials,
-                lights,
-                settings,
-            },
-            camera,
-            x,
-            y,
-        );
+        let sum = render_pixel(&ctx, camera, x, y);
         *pixel = (sum / settings.spp as f32).to_array();
     }
     Ok(())
@@ -189,10 +185,10 @@ fn render_pixel<C: Camera>(ctx: &Context, camera: &C, x: u32, y: u32) -> Vec3 {
     let mut first = 0;
     while first < settings.spp {
         let n = (settings.spp - first).min(8) as usize;
-        let mut rngs = [Rng::new(0, 0); 8];
+        let mut rngs = [Pcg32::new(0, 0); 8];
         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
         for i in 0..n {
-            let mut rng = Rng::new(settings.seed, pixel << 32 | u64::from(first + i as u32));
+            let mut rng = Pcg32::new(settings.seed, pixel << 32 | u64::from(first + i as u32));
             let (jx, jy) = (rng.next_f32(), rng.next_f32());
             rays[i] = camera.ray(
                 x as f32 + jx,
@@ -218,7 +214,7 @@ fn render_pixel<C: Camera>(ctx: &Context, camera: &C, x: u32, y: u32) -> Vec3 {
 }
 
 /// The radiance a path starting with `ray` (whose closest hit is `hit`) brings back.
-fn trace_path(ctx: &Context, mut ray: Ray, mut hit: Hit, rng: &mut Rng) -> Vec3 {
+fn trace_path(ctx: &Context, mut ray: Ray, mut hit: Hit, rng: &mut Pcg32) -> Vec3 {
     let scene = ctx.scene;
     let mut radiance = Vec3::ZERO;
     let mut throughput = Vec3::ONE;
@@ -271,7 +267,8 @@ fn trace_path(ctx: &Context, mut ray: Ray, mut hit: Hit, rng: &mut Rng) -> Vec3 
     radiance
 }
 
-/// `p` moved off its surface along the unit normal `n`, by a few ULPs of `p`'s magnitude.
+/// `p` moved off its surface along the unit normal `n`, by [`SURFACE_OFFSET`] times
+/// `1 + |p|∞` (relative to `p`'s magnitude, absolute near the origin).
 fn offset(p: Vec3, n: Vec3) -> Vec3 {
     p + n * (SURFACE_OFFSET * (1.0 + p.abs().max_element()))
 }
@@ -279,7 +276,7 @@ fn offset(p: Vec3, n: Vec3) -> Vec3 {
 /// Next-event estimation at a Lambertian point (`origin`, already off the surface, with unit
 /// normal `n`): the incident radiance times `cosθ / π`, estimated from one point on one light;
 /// multiplied by the albedo it is the reflected direct light.
-fn direct_light(ctx: &Context, origin: Vec3, n: Vec3, rng: &mut Rng) -> Vec3 {
+fn direct_light(ctx: &Context, origin: Vec3, n: Vec3, rng: &mut Pcg32) -> Vec3 {
     let count = ctx.lights.len();
     if count == 0 {
         return Vec3::ZERO;
@@ -339,18 +336,9 @@ const SURFACE_OFFSET: f32 = 1.0 / (1 << 16) as f32;
 const SHADOW_SLACK: f32 = 1.0 / (1 << 12) as f32;
 
 /// The unit geometric and shading normals at hit `hit` (point `p`), or `None` where they
-/// vanish (a degenerate triangle, a hit at a sphere's centre).
+/// vanish (a degenerate triangle).
 fn normals(scene: &Scene, hit: &Hit, p: Vec3) -> Option<(Vec3, Vec3)> {
-    let n_tris = scene.tri_count();
-    if hit.prim >= n_tris {
-        let sphere = scene.sphere(hit.prim - n_tris);
-        let n = (p - sphere.center).try_normalize()?;
-        return Some((n, n));
-    }
-    let geometric = scene
-        .triangle(hit.prim)
-        .geometric_normal()
-        .try_normalize()?;
+    let geometric = scene.geometric_normal(hit.prim, p).try_normalize()?;
     let shading = match scene.vertex_normals(hit.prim) {
         Some(vn) => shading_normal(vn, hit.u, hit.v, geometric),
         None => geometric,

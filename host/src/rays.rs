@@ -146,12 +146,9 @@ pub fn diffuse_rays(scene: &Scene, primary: &[Ray], hits: &[Hit], seed: u64) -> 
             continue;
         }
         let p = ray.at(hit.t);
-        let n = if hit.prim < scene.tri_count() {
-            scene.triangle(hit.prim).geometric_normal()
-        } else {
-            scene.sphere(hit.prim - scene.tri_count()).normal(p)
+        let Some(n) = scene.geometric_normal(hit.prim, p).try_normalize() else {
+            continue;
         };
-        let Some(n) = n.try_normalize() else { continue };
         let n = if n.dot(ray.dir) > 0.0 { -n } else { n };
         let local = cosine_hemisphere(rng.next_f32(), rng.next_f32());
         let dir = Onb::from_normal(n).to_world(local).normalize();
