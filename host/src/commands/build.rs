@@ -1,5 +1,6 @@
 //! `kdray build` and `kdray info`.
 
+use super::with_progress;
 use core::sync::atomic::{AtomicU64, Ordering};
 use indicatif::{ProgressBar, ProgressStyle};
 use kdray::build::{BuildParams, PROGRESS_TOTAL};
@@ -8,7 +9,7 @@ use kdray::{Geometry, flat, load};
 use kdray_core::Scene;
 use kdray_core::format::contents;
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// Builder settings shared by `build` and `trace`.
 #[derive(clap::Args, Clone, Debug)]
@@ -64,25 +65,18 @@ pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result
         ProgressStyle::with_template("{msg} [{bar:30}] {percent}% {elapsed}")
             .expect("valid template"),
     );
-    let start = Instant::now();
-    // The build runs on its own thread and times itself, so the progress polling below adds
-    // nothing to build_ms.
-    let (tree, build_ms) = std::thread::scope(|s| {
-        let worker = s.spawn(|| {
+    // The build runs on its own thread and times itself, so the progress polling adds nothing
+    // to build_ms.
+    let (tree, build_ms) = with_progress(
+        &bar,
+        || progress.load(Ordering::Relaxed) * 1000 / PROGRESS_TOTAL,
+        || {
             let t0 = Instant::now();
             let tree = kdray::build::build(geom, params, Some(&progress));
             (tree, t0.elapsed().as_secs_f64() * 1e3)
-        });
-        while !worker.is_finished() {
-            std::thread::sleep(Duration::from_millis(20));
-            if start.elapsed() > Duration::from_millis(500) {
-                bar.set_position(progress.load(Ordering::Relaxed) * 1000 / PROGRESS_TOTAL);
-            }
-        }
-        worker.join().expect("builder thread panicked")
-    });
+        },
+    );
     let tree = tree.map_err(|e| Error::new(path, e))?;
-    bar.finish_and_clear();
     let words = flat::serialize(&tree, geom, build_ms as f32).map_err(|e| Error::new(path, e))?;
     Ok((words, build_ms))
 }

@@ -3,8 +3,8 @@
 
 use super::build::build_words;
 use super::trace::{parse_size, pool};
+use super::with_progress;
 use core::sync::atomic::{AtomicU64, Ordering};
-use core::time::Duration;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use kdray::build::BuildParams;
@@ -78,8 +78,10 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             .expect("valid template"),
     );
     let start = Instant::now();
-    std::thread::scope(|s| -> Result<()> {
-        let worker = s.spawn(|| {
+    let result = with_progress(
+        &bar,
+        || rows_done.load(Ordering::Relaxed),
+        || {
             pool.install(|| {
                 pixels
                     .par_chunks_mut(w)
@@ -92,18 +94,10 @@ pub fn render(args: &RenderArgs) -> Result<()> {
                         r
                     })
             })
-        });
-        while !worker.is_finished() {
-            std::thread::sleep(Duration::from_millis(50));
-            if start.elapsed() > Duration::from_millis(500) {
-                bar.set_position(rows_done.load(Ordering::Relaxed));
-            }
-        }
-        let result = worker.join().expect("render thread panicked");
-        result.map_err(|e| Error::new(&file.path, e.to_string()))
-    })?;
+        },
+    );
+    result.map_err(|e| Error::new(&file.path, e.to_string()))?;
     let render_ms = start.elapsed().as_secs_f64() * 1e3;
-    bar.finish_and_clear();
 
     write_png(&args.out, &pixels, settings.width, settings.height)?;
     println!(
