@@ -4,7 +4,7 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         3
+//!  1  VERSION         4
 //!  2  CONTENTS        bit set, see `contents::*`: which sections are present
 //!  3  TOTAL_WORDS     length of the whole array in words (catches truncation and trailing data)
 //!  4  NODE_COUNT      kd-tree nodes (≥ 1; 2 words each)
@@ -29,7 +29,8 @@
 //! filled with zeros.
 //!
 //! # Sections
-//! - **Nodes**, 2 words each, pbrt-v3's `KdAccelNode` layout ([`Node`]).
+//! - **Nodes**, 2 words each, pbrt-v3's `KdAccelNode` layout plus two bits marking empty children
+//!   ([`Node`]).
 //! - **Indices**: `u32` primitive ids, referenced by leaves with more than one primitive.
 //! - **Triangles**: 10 f32 each, `v0, e1 = v1 − v0, e2 = v2 − v0`, the layout Möller–Trumbore
 //!   loads (see [`crate::triangle`]), then the triangle's parallel threshold
@@ -55,7 +56,7 @@ use glam::Vec3;
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).
@@ -149,6 +150,10 @@ pub enum FormatError {
     BadChild {
         node: u32,
     },
+    /// An interior node's empty-child bits do not say exactly which children are empty leaves.
+    BadEmptyFlag {
+        node: u32,
+    },
     /// A leaf references a primitive or an index-list range that does not exist.
     BadPrimitive {
         node: u32,
@@ -190,6 +195,12 @@ impl core::fmt::Display for FormatError {
             Self::BadDepth => write!(f, "tree depth is zero-sized, above {MAX_DEPTH} or wrong"),
             Self::BadSplit { node } => write!(f, "node {node}: split plane is not finite"),
             Self::BadChild { node } => write!(f, "node {node}: child index breaks the tree order"),
+            Self::BadEmptyFlag { node } => {
+                write!(
+                    f,
+                    "node {node}: empty-child flags disagree with its children"
+                )
+            }
             Self::BadPrimitive { node } => {
                 write!(f, "node {node}: primitive reference out of range")
             }
@@ -442,6 +453,10 @@ impl<'a> Scene<'a> {
                 let above = node.above_child();
                 if above <= index + 1 || above >= n_nodes {
                     return Err(FormatError::BadChild { node: index });
+                }
+                let empty = [index + 1, above].map(|i| self.node(i).is_empty_leaf());
+                if node.empty_children() != empty {
+                    return Err(FormatError::BadEmptyFlag { node: index });
                 }
                 stack
                     .push((above, depth + 1))

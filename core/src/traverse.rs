@@ -215,13 +215,15 @@ impl Scene<'_> {
             // Near and far by the direction's sign (the sign of 1/d, so −0 counts as negative):
             // for d > 0 the below child holds the ray for t < t_plane. A NaN t_plane (origin on
             // the plane, direction parallel to it) visits both children with the same interval.
-            let (near, far) = if inv_dir[axis] < 0.0 {
-                (node.above_child(), index + 1)
+            let [below_empty, above_empty] = node.empty_children();
+            let ((near, near_empty), (far, far_empty)) = if inv_dir[axis] < 0.0 {
+                ((node.above_child(), above_empty), (index + 1, below_empty))
             } else {
-                (index + 1, node.above_child())
+                ((index + 1, below_empty), (node.above_child(), above_empty))
             };
-            let visit_near = !(t_plane < tmin);
-            let visit_far = !(t_plane > tmax);
+            // An empty child is never entered: the split only clips the interval.
+            let visit_near = !(t_plane < tmin) && !near_empty;
+            let visit_far = !(t_plane > tmax) && !far_empty;
             // Validation bounds the tree's depth by MAX_DEPTH, and at most one item per level is
             // pending, so the push cannot fail.
             match (visit_near, visit_far) {
@@ -230,7 +232,10 @@ impl Scene<'_> {
                     tmax = tmax.min(t_plane);
                     index = near;
                 }
-                (true, false) => index = near,
+                (true, false) => {
+                    tmax = tmax.min(t_plane);
+                    index = near;
+                }
                 (false, true) => {
                     tmin = tmin.max(t_plane);
                     index = far;

@@ -217,12 +217,12 @@ fn flatten(
     nodes: &mut Vec<Node>,
     indices: &mut Vec<u32>,
 ) -> core::result::Result<u32, String> {
-    let too_big = || "tree too large for the 30-bit node fields".to_string();
+    let too_big = || "tree too large for the node fields (2^28 nodes, 2^30 per leaf)".to_string();
     match node {
         BuildNode::Leaf(prims) => {
             let count = u32::try_from(prims.len())
                 .ok()
-                .filter(|&n| n <= Node::MAX_FIELD)
+                .filter(|&n| n <= Node::MAX_COUNT)
                 .ok_or_else(too_big)?;
             let payload = match prims.len() {
                 0 => 0,
@@ -246,9 +246,12 @@ fn flatten(
             let d_below = flatten(&children[0], nodes, indices)?;
             let above = u32::try_from(nodes.len())
                 .ok()
-                .filter(|&n| n <= Node::MAX_FIELD)
+                .filter(|&n| n <= Node::MAX_CHILD)
                 .ok_or_else(too_big)?;
-            nodes[at] = Node::interior(*axis as u32, *split, above);
+            let empty = children
+                .each_ref()
+                .map(|c| matches!(c, BuildNode::Leaf(p) if p.is_empty()));
+            nodes[at] = Node::interior(*axis as u32, *split, above, empty);
             let d_above = flatten(&children[1], nodes, indices)?;
             Ok(1 + d_below.max(d_above))
         }

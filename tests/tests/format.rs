@@ -203,6 +203,25 @@ fn each_corruption_has_its_own_error() {
         corrupt(&|w| w[interior + 1] |= 0x3fff_fff0 << 2),
         Err(FormatError::BadChild { .. })
     ));
+    // Each interior node's empty-child bits, flipped one at a time, in both directions: a bit
+    // claiming an empty child that holds primitives (or is interior), and a clear bit on an empty
+    // leaf.
+    let base = good[header::NODES_OFFSET] as usize;
+    let mut set_bits = 0;
+    for i in 0..good[header::NODE_COUNT] as usize {
+        let node = Node::from_words([good[base + 2 * i], good[base + 2 * i + 1]]);
+        if node.is_leaf() {
+            continue;
+        }
+        set_bits += node.empty_children().iter().filter(|&&e| e).count();
+        for bit in [2, 3] {
+            assert_eq!(
+                corrupt(&|w| w[base + 2 * i + 1] ^= 1 << bit),
+                Err(FormatError::BadEmptyFlag { node: i as u32 })
+            );
+        }
+    }
+    assert!(set_bits > 0, "the scene should have empty leaves");
     // A leaf naming a primitive that does not exist, and an index-list range past its end.
     let many = many.expect("the scene has a multi-primitive leaf");
     let one_missing = |w: &mut Vec<u32>| {
@@ -244,7 +263,7 @@ fn a_dag_of_shared_nodes_is_rejected_not_walked() {
     w[header::DEPTH] = 40;
     w[header::NODES_OFFSET] = HEADER_WORDS as u32;
     for i in 0..n - 1 {
-        w.extend(Node::interior(0, 0.0, i + 1).words());
+        w.extend(Node::interior(0, 0.0, i + 1, [false; 2]).words());
     }
     w.extend(Node::leaf(0, 0).words());
     w[header::TOTAL_WORDS] = w.len() as u32;
@@ -258,7 +277,7 @@ fn a_tree_deeper_than_the_stack_is_rejected() {
     let mut w = vec![0u32; HEADER_WORDS];
     let mut nodes = Vec::new();
     for i in 0..depth {
-        nodes.push(Node::interior(0, 0.0, 2 * i + 2));
+        nodes.push(Node::interior(0, 0.0, 2 * i + 2, [true, i + 1 == depth]));
         nodes.push(Node::leaf(0, 0));
     }
     nodes.push(Node::leaf(0, 0));

@@ -150,33 +150,51 @@ impl Scene<'_> {
             } else if alive.any() {
                 let axis = node.axis();
                 let t_split = (L::splat(node.split()) - origin[axis]) * inv_dir[axis];
-                let (near, far) = if negative[axis] {
-                    (node.above_child(), index + 1)
+                let [below_empty, above_empty] = node.empty_children();
+                let ((near, near_empty), (far, far_empty)) = if negative[axis] {
+                    ((node.above_child(), above_empty), (index + 1, below_empty))
                 } else {
-                    (index + 1, node.above_child())
+                    ((index + 1, below_empty), (node.above_child(), above_empty))
                 };
                 // `!(a < b)` so that NaN (origin on the plane, parallel direction) needs both.
-                let need_near = alive & !t_split.lt(tmin);
-                let need_far = alive & !t_split.gt(tmax);
-                if need_far.none() {
-                    tmax = tmax.min(t_split);
-                    index = near;
-                    continue;
+                // An empty child is never entered: the split only clips the intervals.
+                let none = L::splat(0.0);
+                let need_near = if near_empty {
+                    none
+                } else {
+                    alive & !t_split.lt(tmin)
+                };
+                let need_far = if far_empty {
+                    none
+                } else {
+                    alive & !t_split.gt(tmax)
+                };
+                match (need_near.any(), need_far.any()) {
+                    (true, false) => {
+                        tmax = tmax.min(t_split);
+                        index = near;
+                        continue;
+                    }
+                    (false, true) => {
+                        tmin = tmin.max(t_split);
+                        index = far;
+                        continue;
+                    }
+                    (true, true) => {
+                        // Validation bounds the depth by MAX_DEPTH and one item per level is
+                        // pending.
+                        let _ = stack.push(Item {
+                            node: far,
+                            tmin: tmin.max(t_split),
+                            tmax,
+                        });
+                        tmax = tmax.min(t_split);
+                        index = near;
+                        continue;
+                    }
+                    // Nothing left here but empty children: take the next pending node.
+                    (false, false) => {}
                 }
-                if need_near.none() {
-                    tmin = tmin.max(t_split);
-                    index = far;
-                    continue;
-                }
-                // Validation bounds the depth by MAX_DEPTH and one item per level is pending.
-                let _ = stack.push(Item {
-                    node: far,
-                    tmin: tmin.max(t_split),
-                    tmax,
-                });
-                tmax = tmax.min(t_split);
-                index = near;
-                continue;
             }
             match stack.pop() {
                 Some(item) => (index, tmin, tmax) = (item.node, item.tmin, item.tmax),
