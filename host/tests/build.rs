@@ -1,0 +1,103 @@
+//! The builder's depth rule: pbrt-v3's automatic limit, past which only nodes holding more than
+//! `DEEP_LEAF_PRIMS` primitives may split, for at most `DEEP_LEVELS` more levels; an explicit
+//! `max_depth` is a hard limit.
+
+use glam::Vec3;
+use kdray::build::{BuildNode, BuildParams, DEEP_LEAF_PRIMS, DEEP_LEVELS, build};
+use kdray::geometry::Geometry;
+use std::collections::BTreeSet;
+
+/// A UV sphere of `n × n` quads: its poles are fans of thin triangles sharing one vertex, a dense
+/// spot that the cost model wants to split past pbrt-v3's depth limit.
+fn uv_sphere(n: u32) -> Geometry {
+    let point = |i: u32, j: u32| {
+        let (theta, phi) = (
+            core::f32::consts::PI * i as f32 / n as f32,
+            core::f32::consts::TAU * j as f32 / n as f32,
+        );
+        Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        )
+    };
+    let mut triangles = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (a, b, c, d) = (
+                point(i, j),
+                point(i + 1, j),
+                point(i + 1, j + 1),
+                point(i, j + 1),
+            );
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    Geometry {
+        triangles,
+        ..Geometry::default()
+    }
+}
+
+/// Walks the tree; calls `interior(depth, primitives in the subtree)` for each interior node and
+/// returns the tree's depth and its subtree's primitives.
+fn walk(
+    node: &BuildNode,
+    depth: u32,
+    interior: &mut impl FnMut(u32, usize),
+) -> (u32, BTreeSet<u32>) {
+    match node {
+        BuildNode::Leaf(prims) => (depth, prims.iter().copied().collect()),
+        BuildNode::Interior { children, .. } => {
+            let (db, mut below) = walk(&children[0], depth + 1, interior);
+            let (da, above) = walk(&children[1], depth + 1, interior);
+            below.extend(above);
+            interior(depth, below.len());
+            (db.max(da), below)
+        }
+    }
+}
+
+#[test]
+fn past_the_automatic_limit_only_crowded_nodes_split() {
+    let geom = uv_sphere(40);
+    let params = BuildParams {
+        parallel: false,
+        ..BuildParams::default()
+    };
+    let (soft, hard) = params.depth_limits(geom.triangles.len());
+    assert_eq!(hard, soft + DEEP_LEVELS);
+    let tree = build(&geom, &params, None).unwrap();
+    let mut deep_interiors = 0;
+    let (depth, _) = walk(&tree.root, 0, &mut |d, prims| {
+        if d >= soft {
+            deep_interiors += 1;
+            assert!(
+                prims > DEEP_LEAF_PRIMS,
+                "an interior node at depth {d} (limit {soft}) holds only {prims} primitives"
+            );
+        }
+    });
+    assert!(depth <= hard, "depth {depth} past the hard limit {hard}");
+    // The poles make the rule matter: some nodes do split past the automatic limit.
+    assert!(deep_interiors > 0, "no node split past depth {soft}");
+}
+
+#[test]
+fn an_explicit_max_depth_is_hard() {
+    let geom = uv_sphere(40);
+    let (soft, _) = BuildParams::default().depth_limits(geom.triangles.len());
+    let params = BuildParams {
+        parallel: false,
+        max_depth: Some(soft),
+        ..BuildParams::default()
+    };
+    assert_eq!(params.depth_limits(geom.triangles.len()), (soft, soft));
+    let tree = build(&geom, &params, None).unwrap();
+    let (depth, _) = walk(&tree.root, 0, &mut |_, _| {});
+    assert!(
+        depth <= soft,
+        "depth {depth} past the explicit limit {soft}"
+    );
+}
