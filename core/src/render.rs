@@ -1,10 +1,12 @@
 //! The render kernel: a unidirectional path tracer that writes linear RGB radiance into a
 //! caller's buffer, row by row, with no allocation.
 //!
-//! Each pixel's samples are jittered inside the pixel and traced eight at a time as one 8-wide
-//! packet (the samples of one pixel are as coherent as rays get); every bounce after the first
-//! hit is a single ray through the scalar walk ([`Scene::intersect`]), since diffuse bounces are
-//! incoherent (docs/BENCHMARKS.md, "Which path is used when").
+//! Each pixel's samples are jittered inside the pixel and traced eight at a time, side by side:
+//! with [`Bounces::Packets`] (the default) each round of their camera, bounce and shadow rays is one
+//! 8-wide packet, the lanes of finished paths masked — even diffuse bounces, which are incoherent,
+//! trace faster so than one by one (docs/BENCHMARKS.md, "Which path is used when");
+//! [`Bounces::SingleRays`] sends every ray through the scalar walk ([`Scene::intersect`]) and gives
+//! the same image.
 //!
 //! Light transport, per path vertex (at most [`Settings::max_depth`] of them):
 //! - `Diffuse` and `Emissive` surfaces scatter Lambertian-wise, by cosine-weighted sampling, so
@@ -27,7 +29,7 @@ use crate::math;
 use crate::optics;
 use crate::ray::{Hit, Ray};
 use crate::sampling::{Onb, Pcg32, cosine_hemisphere};
-use crate::simd::{RayPacket, f32x8};
+use crate::simd::{Lanes, RayPacket, f32x8};
 use crate::triangle::shading_normal;
 use core::f32::consts::PI;
 use glam::Vec3;
@@ -81,6 +83,24 @@ pub struct Settings {
     pub background: Vec3,
     /// Seeds every sample's random numbers.
     pub seed: u64,
+    /// How the rays after the camera's are traced; the image is the same either way.
+    pub bounces: Bounces,
+}
+
+/// How [`render_rows`] traces the bounce and shadow rays of a pixel's paths. Both give the same
+/// image, bit for bit (each path makes the same choices from the same random numbers, and packet
+/// traversal finds what the scalar walk finds).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Bounces {
+    /// A pixel's (up to) eight samples advance together: each round of bounce rays, and of shadow
+    /// rays, is one 8-wide packet with the finished paths' lanes inactive. The faster choice where
+    /// `wide` has SIMD registers (docs/BENCHMARKS.md, "Which path is used when").
+    #[default]
+    Packets,
+    /// Each path on its own, every ray (the camera's too) through the scalar walk: the reference,
+    /// and meant for targets where `wide` emulates its lanes in scalar code (e.g. Cortex-M4F), where
+    /// a packet costs eight rays' work however few of its lanes are live.
+    SingleRays,
 }
 
 /// Why [`render_rows`] refused its arguments.
@@ -185,27 +205,27 @@ fn render_pixel<C: Camera>(ctx: &Context, camera: &C, x: u32, y: u32) -> Vec3 {
     let mut first = 0;
     while first < settings.spp {
         let n = (settings.spp - first).min(8) as usize;
-        let mut rngs = [Pcg32::new(0, 0); 8];
-        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
-        for i in 0..n {
+        let mut paths = [Path::new(Ray::new(Vec3::ZERO, Vec3::Z), Pcg32::new(0, 0)); 8];
+        for (i, path) in paths.iter_mut().enumerate().take(n) {
             let mut rng = Pcg32::new(settings.seed, pixel << 32 | u64::from(first + i as u32));
             let (jx, jy) = (rng.next_f32(), rng.next_f32());
-            rays[i] = camera.ray(
+            let ray = camera.ray(
                 x as f32 + jx,
                 y as f32 + jy,
                 settings.width,
                 settings.height,
             );
-            rngs[i] = rng;
+            *path = Path::new(ray, rng);
         }
-        let hits = ctx
-            .scene
-            .intersect_packet(&RayPacket::<f32x8>::from_rays(&rays[..n]));
-        for i in 0..n {
-            let l = trace_path(ctx, rays[i], hits.hit(i), &mut rngs[i]);
+        let paths = &mut paths[..n];
+        match settings.bounces {
+            Bounces::Packets => trace_paths_packed(ctx, paths),
+            Bounces::SingleRays => paths.iter_mut().for_each(|p| trace_path(ctx, p)),
+        }
+        for path in paths.iter() {
             // A non-finite sample (a NaN from a degenerate normal, say) is dropped, not spread.
-            if l.is_finite() {
-                sum += l;
+            if path.radiance.is_finite() {
+                sum += path.radiance;
             }
         }
         first += n as u32;
@@ -213,58 +233,175 @@ fn render_pixel<C: Camera>(ctx: &Context, camera: &C, x: u32, y: u32) -> Vec3 {
     sum
 }
 
-/// The radiance a path starting with `ray` (whose closest hit is `hit`) brings back.
-fn trace_path(ctx: &Context, mut ray: Ray, mut hit: Hit, rng: &mut Pcg32) -> Vec3 {
+/// One sample's path: the ray it follows next, its random numbers and what it has gathered.
+#[derive(Clone, Copy)]
+struct Path {
+    ray: Ray,
+    rng: Pcg32,
+    radiance: Vec3,
+    throughput: Vec3,
+    /// Whether emission where `ray` lands counts (camera rays, specular bounces, no lights).
+    count_emission: bool,
+}
+
+/// A shadow ray that a path vertex waits on: if nothing blocks `ray`, the path gains
+/// `factor * light`, otherwise `factor * 0`.
+#[derive(Clone, Copy)]
+struct Shadow {
+    ray: Ray,
+    factor: Vec3,
+    light: Vec3,
+}
+
+impl Path {
+    fn new(ray: Ray, rng: Pcg32) -> Self {
+        Self {
+            ray,
+            rng,
+            radiance: Vec3::ZERO,
+            throughput: Vec3::ONE,
+            count_emission: true,
+        }
+    }
+
+    /// Adds the direct light of `shadow` once its ray's fate is known.
+    fn resolve(&mut self, shadow: &Shadow, occluded: bool) {
+        let light = if occluded { Vec3::ZERO } else { shadow.light };
+        self.radiance += shadow.factor * light;
+    }
+}
+
+/// One path all by itself: every ray through the scalar walk.
+fn trace_path(ctx: &Context, path: &mut Path) {
+    let mut hit = ctx.scene.intersect(&path.ray);
+    for depth in 1..=ctx.settings.max_depth {
+        let (goes_on, shadow) = vertex(ctx, path, &hit);
+        if let Some(shadow) = shadow {
+            path.resolve(&shadow, ctx.scene.occluded(&shadow.ray));
+        }
+        if !goes_on || depth == ctx.settings.max_depth {
+            return;
+        }
+        hit = ctx.scene.intersect(&path.ray);
+    }
+}
+
+/// Up to eight paths side by side: each round's camera or bounce rays are one 8-wide packet, and
+/// so are its shadow rays, with the lanes of finished paths (or of paths without a shadow ray)
+/// inactive. Every lane does exactly what [`trace_path`] does for it, in the same order, and the
+/// packet traversal finds what the scalar walk finds, so the image is the same.
+fn trace_paths_packed(ctx: &Context, paths: &mut [Path]) {
     let scene = ctx.scene;
-    let mut radiance = Vec3::ZERO;
-    let mut throughput = Vec3::ONE;
-    let mut count_emission = true;
-    for _ in 0..ctx.settings.max_depth {
-        if !hit.is_hit() {
-            return radiance + throughput * ctx.settings.background;
-        }
-        let m = ctx.material(hit.prim);
-        if count_emission {
-            radiance += throughput * m.emission;
-        }
-        let p = ray.at(hit.t);
-        let Some((geometric, shading)) = normals(scene, &hit, p) else {
-            return radiance;
-        };
-        // Both normals turned to the side the ray comes from.
-        let front = geometric.dot(ray.dir) < 0.0;
-        let ng = if front { geometric } else { -geometric };
-        let ns = if shading.dot(ng) > 0.0 { shading } else { ng };
-        let diffuse = matches!(m.kind, MaterialKind::Diffuse | MaterialKind::Emissive);
-        let dir = match m.kind {
-            MaterialKind::Diffuse | MaterialKind::Emissive => {
-                let origin = offset(p, ng);
-                radiance += throughput * m.albedo * direct_light(ctx, origin, ns, rng);
-                Onb::from_normal(ns).to_world(cosine_hemisphere(rng.next_f32(), rng.next_f32()))
+    let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
+    let mut live = 0u32;
+    for (i, path) in paths.iter().enumerate() {
+        rays[i] = path.ray;
+        live |= 1 << i;
+    }
+    let mut hits = scene.intersect_packet(&packet(&rays, live));
+    for depth in 1..=ctx.settings.max_depth {
+        let mut shadows = [None; 8];
+        let (mut next, mut waiting) = (0u32, 0u32);
+        for i in lanes(live) {
+            let (goes_on, shadow) = vertex(ctx, &mut paths[i], &hits.hit(i));
+            if let Some(shadow) = shadow {
+                rays[i] = shadow.ray;
+                waiting |= 1 << i;
             }
-            MaterialKind::Mirror => optics::reflect(ray.dir, ns),
-            MaterialKind::Glass => {
-                let (eta1, eta2) = if front { (1.0, m.ior) } else { (m.ior, 1.0) };
-                let cos_i = -ray.dir.dot(ns);
-                let reflected = optics::reflect(ray.dir, ns);
-                if rng.next_f32() < optics::fresnel_dielectric(cos_i, eta1, eta2) {
-                    reflected
-                } else {
-                    optics::refract(ray.dir, ns, eta1, eta2).unwrap_or(reflected)
+            shadows[i] = shadow;
+            next |= u32::from(goes_on) << i;
+        }
+        if waiting != 0 {
+            let occluded = scene.occluded_packet(&packet(&rays, waiting)).bitmask();
+            for i in lanes(waiting) {
+                if let Some(shadow) = &shadows[i] {
+                    paths[i].resolve(shadow, occluded >> i & 1 == 1);
                 }
             }
-        };
-        let Some(dir) = dir.try_normalize() else {
-            return radiance;
-        };
-        throughput *= m.albedo;
-        count_emission = !diffuse || ctx.lights.is_empty();
-        // Leave the surface on the side the new direction goes to.
-        let side = if dir.dot(ng) >= 0.0 { ng } else { -ng };
-        ray = Ray::new(offset(p, side), dir);
-        hit = scene.intersect(&ray);
+        }
+        live = next;
+        if live == 0 || depth == ctx.settings.max_depth {
+            return;
+        }
+        for i in lanes(live) {
+            rays[i] = paths[i].ray;
+        }
+        hits = scene.intersect_packet(&packet(&rays, live));
     }
-    radiance
+}
+
+/// The packet of `rays` with only the lanes in `mask` active.
+fn packet(rays: &[Ray; 8], mask: u32) -> RayPacket<f32x8> {
+    let mut packet = RayPacket::from_rays(rays);
+    packet.active &= f32x8::mask_from_bits(mask);
+    packet
+}
+
+/// The indices of the set bits of `mask`, lowest first.
+fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+    core::iter::from_fn(move || {
+        let i = mask.trailing_zeros();
+        mask &= mask.wrapping_sub(1);
+        (i < 32).then_some(i as usize)
+    })
+}
+
+/// The path vertex where `path.ray` lands (`hit`): adds what it emits and, after a diffuse
+/// bounce, returns the shadow ray of its direct light; then either turns `path.ray` into the next
+/// bounce and returns `true`, or ends the path (`false`).
+fn vertex(ctx: &Context, path: &mut Path, hit: &Hit) -> (bool, Option<Shadow>) {
+    let scene = ctx.scene;
+    let ray = path.ray;
+    if !hit.is_hit() {
+        path.radiance += path.throughput * ctx.settings.background;
+        return (false, None);
+    }
+    let m = ctx.material(hit.prim);
+    if path.count_emission {
+        path.radiance += path.throughput * m.emission;
+    }
+    let p = ray.at(hit.t);
+    let Some((geometric, shading)) = normals(scene, hit, p) else {
+        return (false, None);
+    };
+    // Both normals turned to the side the ray comes from.
+    let front = geometric.dot(ray.dir) < 0.0;
+    let ng = if front { geometric } else { -geometric };
+    let ns = if shading.dot(ng) > 0.0 { shading } else { ng };
+    let diffuse = matches!(m.kind, MaterialKind::Diffuse | MaterialKind::Emissive);
+    let mut shadow = None;
+    let rng = &mut path.rng;
+    let dir = match m.kind {
+        MaterialKind::Diffuse | MaterialKind::Emissive => {
+            let origin = offset(p, ng);
+            let factor = path.throughput * m.albedo;
+            match direct_light(ctx, origin, ns, rng) {
+                Some((ray, light)) => shadow = Some(Shadow { ray, factor, light }),
+                None => path.radiance += factor * Vec3::ZERO,
+            }
+            Onb::from_normal(ns).to_world(cosine_hemisphere(rng.next_f32(), rng.next_f32()))
+        }
+        MaterialKind::Mirror => optics::reflect(ray.dir, ns),
+        MaterialKind::Glass => {
+            let (eta1, eta2) = if front { (1.0, m.ior) } else { (m.ior, 1.0) };
+            let cos_i = -ray.dir.dot(ns);
+            let reflected = optics::reflect(ray.dir, ns);
+            if rng.next_f32() < optics::fresnel_dielectric(cos_i, eta1, eta2) {
+                reflected
+            } else {
+                optics::refract(ray.dir, ns, eta1, eta2).unwrap_or(reflected)
+            }
+        }
+    };
+    let Some(dir) = dir.try_normalize() else {
+        return (false, shadow);
+    };
+    path.throughput *= m.albedo;
+    path.count_emission = !diffuse || ctx.lights.is_empty();
+    // Leave the surface on the side the new direction goes to.
+    let side = if dir.dot(ng) >= 0.0 { ng } else { -ng };
+    path.ray = Ray::new(offset(p, side), dir);
+    (true, shadow)
 }
 
 /// `p` moved off its surface along the unit normal `n`, by [`SURFACE_OFFSET`] times
@@ -274,35 +411,33 @@ fn offset(p: Vec3, n: Vec3) -> Vec3 {
 }
 
 /// Next-event estimation at a Lambertian point (`origin`, already off the surface, with unit
-/// normal `n`): the incident radiance times `cosθ / π`, estimated from one point on one light;
-/// multiplied by the albedo it is the reflected direct light.
-fn direct_light(ctx: &Context, origin: Vec3, n: Vec3, rng: &mut Pcg32) -> Vec3 {
+/// normal `n`): one point on one light, as a shadow ray towards it and the light it brings if
+/// nothing blocks it — the incident radiance times `cosθ / π`, which multiplied by the albedo is
+/// the reflected direct light. `None` where that light is zero whatever the shadow ray finds.
+fn direct_light(ctx: &Context, origin: Vec3, n: Vec3, rng: &mut Pcg32) -> Option<(Ray, Vec3)> {
     let count = ctx.lights.len();
     if count == 0 {
-        return Vec3::ZERO;
+        return None;
     }
     let pick = ((rng.next_f32() * count as f32) as usize).min(count - 1);
     let prim = ctx.lights[pick];
     let (u1, u2) = (rng.next_f32(), rng.next_f32());
-    let Some((q, nl, area)) = point_on(ctx.scene, prim, u1, u2) else {
-        return Vec3::ZERO;
-    };
+    let (q, nl, area) = point_on(ctx.scene, prim, u1, u2)?;
     let to_light = q - origin;
     let dist2 = to_light.length_squared();
     let dist = math::sqrt(dist2);
     let wi = to_light / dist;
     let (cos_here, cos_there) = (wi.dot(n), wi.dot(nl).abs());
     if !(cos_here > 0.0 && cos_there > 0.0 && dist2 > 0.0) {
-        return Vec3::ZERO;
+        return None;
     }
     // Stop short of the light's surface so that it does not shadow itself.
     let shadow = Ray::new(origin, wi).with_range(0.0, dist * (1.0 - SHADOW_SLACK));
-    if ctx.scene.occluded(&shadow) {
-        return Vec3::ZERO;
-    }
     // pdf of the point, per unit area: 1 / (count · area); converted to solid angle by
     // dist² / cos_there.
-    ctx.material(prim).emission * (cos_here * cos_there / dist2 * area * count as f32 / PI)
+    let light =
+        ctx.material(prim).emission * (cos_here * cos_there / dist2 * area * count as f32 / PI);
+    Some((shadow, light))
 }
 
 /// A point on primitive `prim` uniform by area from `(u1, u2)` in `[0, 1)²`: the point, the unit

@@ -306,15 +306,21 @@ fn render_draws_the_default_scene_the_right_way_round() {
 }
 
 #[test]
-fn render_is_the_same_on_one_thread_and_two() {
+fn render_is_the_same_on_one_thread_and_two_and_with_single_ray_bounces() {
     let d = dir("render-threads");
-    let (a, b) = (d.join("a.png"), d.join("b.png"));
-    for (out, threads) in [(&a, "1"), (&b, "2")] {
+    let (a, b, c) = (d.join("a.png"), d.join("b.png"), d.join("c.png"));
+    let runs = [
+        (&a, &["--threads", "1"][..]),
+        (&b, &["--threads", "2"]),
+        (&c, &["--bounces", "single"]),
+    ];
+    for (out, extra) in runs {
         let args = ["render", "-o", s(out), "--size", "16x16", "--spp", "2"];
-        let o = kdray(&[&args[..], &["--threads", threads]].concat());
+        let o = kdray(&[&args[..], extra].concat());
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
     assert_eq!(read_png(&a), read_png(&b));
+    assert_eq!(read_png(&a), read_png(&c));
 }
 
 #[test]

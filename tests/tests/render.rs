@@ -5,7 +5,7 @@ use glam::Vec3;
 use kdray::Geometry;
 use kdray_core::Scene;
 use kdray_core::camera::Pinhole;
-use kdray_core::render::{self, Material, MaterialKind, RenderError, Settings};
+use kdray_core::render::{self, Bounces, Material, MaterialKind, RenderError, Settings};
 use kdray_tests::strategies::scene_words;
 
 fn material(kind: MaterialKind, albedo: f32, emission: f32) -> Material {
@@ -25,6 +25,7 @@ fn settings(size: u32, spp: u32, max_depth: u32, background: f32) -> Settings {
         max_depth,
         background: Vec3::splat(background),
         seed: 7,
+        bounces: Bounces::Packets,
     }
 }
 
@@ -279,4 +280,75 @@ fn bad_buffers_and_empty_images_are_refused() {
         call(&Settings { width: 0, ..s }, 0, 0),
         Err(RenderError::EmptyImage)
     );
+}
+
+#[test]
+fn packed_and_single_ray_paths_render_the_same_image() {
+    // A floor, a mirror wall, a glass, a mirror and a diffuse sphere, and a small emissive
+    // triangle overhead: paths end after different numbers of bounces (sky, light, depth), so a
+    // pixel's packets lose lanes as they go.
+    let (mut triangles, mut tri_materials) = floor(3.0, 0.0, 0);
+    let wall = |x: f32, z: f32, y: f32| Vec3::new(x, y, z);
+    triangles.push([
+        wall(-3.0, -1.0, 0.0),
+        wall(3.0, -1.0, 0.0),
+        wall(3.0, -1.0, 2.0),
+    ]);
+    triangles.push([
+        wall(-3.0, -1.0, 0.0),
+        wall(3.0, -1.0, 2.0),
+        wall(-3.0, -1.0, 2.0),
+    ]);
+    tri_materials.extend([1, 1]);
+    triangles.push([
+        Vec3::new(-0.3, 1.5, -0.3),
+        Vec3::new(0.3, 1.5, -0.3),
+        Vec3::new(0.0, 1.5, 0.3),
+    ]);
+    tri_materials.push(3);
+    let geom = Geometry {
+        triangles,
+        tri_materials,
+        spheres: vec![
+            (Vec3::new(0.0, 0.3, 0.0), 0.3),
+            (Vec3::new(0.6, 0.2, 0.3), 0.2),
+            (Vec3::new(-0.6, 0.25, 0.2), 0.25),
+        ],
+        sphere_materials: vec![2, 1, 0],
+        ..Geometry::default()
+    };
+    let materials = [
+        material(MaterialKind::Diffuse, 0.7, 0.0),
+        material(MaterialKind::Mirror, 0.9, 0.0),
+        material(MaterialKind::Glass, 1.0, 0.0),
+        material(MaterialKind::Emissive, 0.5, 20.0),
+    ];
+    let camera = Pinhole::look_at(
+        Vec3::new(0.3, 1.2, 2.0),
+        Vec3::new(0.0, 0.3, 0.0),
+        Vec3::Y,
+        60.0,
+    )
+    .unwrap();
+    for (spp, max_depth) in [(11, 6), (8, 1), (3, 0), (1, 3)] {
+        let packed = settings(10, spp, max_depth, 0.2);
+        let single = Settings {
+            bounces: Bounces::SingleRays,
+            ..packed
+        };
+        let a = render_image(&geom, &camera, &materials, &packed);
+        let b = render_image(&geom, &camera, &materials, &single);
+        assert!(
+            a == b,
+            "spp {spp}, max_depth {max_depth}: the images differ"
+        );
+        if max_depth > 0 {
+            // Not a vacuous comparison: light, sky and shadow all show.
+            let lum: Vec<f32> = a.iter().map(|p| p.x + p.y + p.z).collect();
+            let (lo, hi) = lum
+                .iter()
+                .fold((f32::MAX, 0.0f32), |(lo, hi), &l| (lo.min(l), hi.max(l)));
+            assert!(hi > 2.0 * lo && hi > 0.0, "a flat image: {lo} .. {hi}");
+        }
+    }
 }
