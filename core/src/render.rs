@@ -3,8 +3,8 @@
 //!
 //! Each pixel's samples are jittered inside the pixel and traced eight at a time, side by side:
 //! with [`Bounces::Packets`] (the default) each round of their camera, bounce and shadow rays is one
-//! 8-wide packet, the lanes of finished paths masked — even diffuse bounces, which are incoherent,
-//! trace faster so than one by one (docs/BENCHMARKS.md, "Which path is used when");
+//! 8-wide packet, the lanes of finished paths masked: even diffuse bounces, which are incoherent,
+//! trace faster that way than one by one (docs/BENCHMARKS.md, "Which path is used when");
 //! [`Bounces::SingleRays`] sends every ray through the scalar walk ([`Scene::intersect`]) and gives
 //! the same image.
 //!
