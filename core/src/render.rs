@@ -29,6 +29,7 @@ use crate::math;
 use crate::optics;
 use crate::ray::{Hit, Ray};
 use crate::sampling::{Onb, Pcg32, cosine_hemisphere};
+use crate::simd::lanes::set_lanes;
 use crate::simd::{Lanes, RayPacket, f32x8};
 use crate::triangle::shading_normal;
 use core::f32::consts::PI;
@@ -302,7 +303,7 @@ fn trace_paths_packed(ctx: &Context, paths: &mut [Path]) {
     for depth in 1..=ctx.settings.max_depth {
         let mut shadows = [None; 8];
         let (mut next, mut waiting) = (0u32, 0u32);
-        for i in lanes(live) {
+        for i in set_lanes(live) {
             let (goes_on, shadow) = vertex(ctx, &mut paths[i], &hits.hit(i));
             if let Some(shadow) = shadow {
                 rays[i] = shadow.ray;
@@ -313,7 +314,7 @@ fn trace_paths_packed(ctx: &Context, paths: &mut [Path]) {
         }
         if waiting != 0 {
             let occluded = scene.occluded_packet(&packet(&rays, waiting)).bitmask();
-            for i in lanes(waiting) {
+            for i in set_lanes(waiting) {
                 if let Some(shadow) = &shadows[i] {
                     paths[i].resolve(shadow, occluded >> i & 1 == 1);
                 }
@@ -323,7 +324,7 @@ fn trace_paths_packed(ctx: &Context, paths: &mut [Path]) {
         if live == 0 || depth == ctx.settings.max_depth {
             return;
         }
-        for i in lanes(live) {
+        for i in set_lanes(live) {
             rays[i] = paths[i].ray;
         }
         hits = scene.intersect_packet(&packet(&rays, live));
@@ -335,15 +336,6 @@ fn packet(rays: &[Ray; 8], mask: u32) -> RayPacket<f32x8> {
     let mut packet = RayPacket::from_rays(rays);
     packet.active &= f32x8::mask_from_bits(mask);
     packet
-}
-
-/// The indices of the set bits of `mask`, lowest first.
-fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
-    core::iter::from_fn(move || {
-        let i = mask.trailing_zeros();
-        mask &= mask.wrapping_sub(1);
-        (i < 32).then_some(i as usize)
-    })
 }
 
 /// The path vertex where `path.ray` lands (`hit`): adds what it emits and, after a diffuse

@@ -398,3 +398,13 @@ impl<L: Lanes> Sub for Vec3x<L> {
         }
     }
 }
+
+/// The indices of the set bits of a lane bitmask ([`Lanes::bitmask`]), lowest first.
+#[inline]
+pub(crate) fn set_lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+    core::iter::from_fn(move || {
+        let i = mask.trailing_zeros();
+        mask &= mask.wrapping_sub(1);
+        (i < 32).then_some(i as usize)
+    })
+}

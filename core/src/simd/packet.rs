@@ -1,6 +1,6 @@
 //! Ray and hit packets: `W` rays or hits in struct-of-arrays lanes, with an active mask.
 
-use super::lanes::{Lanes, Vec3x};
+use super::lanes::{Lanes, Vec3x, set_lanes};
 use crate::ray::{Hit, Ray};
 
 /// Up to `W` rays in struct-of-arrays lanes.
@@ -158,10 +158,7 @@ impl<L: Lanes> HitPacket<L> {
             self.u.to_array(),
             self.v.to_array(),
         );
-        let mut active = rays.active.bitmask();
-        while active != 0 {
-            let i = active.trailing_zeros() as usize;
-            active &= active - 1;
+        for i in set_lanes(rays.active.bitmask()) {
             if let Some(slot) = out.get_mut(i) {
                 *slot = Hit {
                     t: t.as_ref()[i],
