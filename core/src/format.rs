@@ -4,7 +4,7 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         4
+//!  1  VERSION         5 (4 had no checksum: files written before it are refused, rebuild them)
 //!  2  CONTENTS        bit set, see `contents::*`: which sections are present
 //!  3  TOTAL_WORDS     length of the whole array in words (catches truncation and trailing data)
 //!  4  NODE_COUNT      kd-tree nodes (≥ 1; 2 words each)
@@ -22,7 +22,8 @@
 //! 21  MATERIALS_OFFSET … of per-primitive material ids (0 when absent)
 //! 22  BUILD_MS        build time in milliseconds (f32 bits): information only, not validated
 //! 23  INPUT_IDS_OFFSET … of the triangles' input indices (0 when absent)
-//! 24..32              reserved, must be 0
+//! 24..26 CHECKSUM     [`checksum`] of all words, low word first (see "Corruption" below)
+//! 26..32              reserved, must be 0
 //! ```
 //! Sections start on multiples of 8 words (32 bytes), lie inside `HEADER_WORDS .. TOTAL_WORDS`
 //! and do not overlap. A section the scene does not need is absent (offset 0, bit clear), not
@@ -47,6 +48,25 @@
 //!   about 9 % faster). Normals, texture coordinates and materials follow storage order.
 //!   Validation checks each id is below TRI_COUNT, not that they are a permutation (that would
 //!   need memory): a repeated id can only mislabel a hit, never make an access fail.
+//!
+//! # Corruption: what a damaged or crafted file can and cannot do
+//! - **Damage** (a flipped bit, a torn write, a bad sector) is caught by the checksum: 64-bit
+//!   FNV-1a (Fowler, Noll, Vo) run over the words in four interleaved lanes (word `i` feeds lane
+//!   `i mod 4`; the two checksum words count as 0), the lanes and the length then folded by
+//!   the same step. Each step `h ← (h ⊕ w)·p` is a bijection of `h` for a fixed word and of `w`
+//!   for a fixed `h`, so a file that differs from what was written in any **one** word (any
+//!   single-bit flip among them) never matches; random damage to several words goes unnoticed
+//!   with a chance of about 2⁻⁶⁴. Checking it costs one multiply per word, less than the
+//!   validation pass below. [`Scene::from_words`] checks it right after the magic, version and
+//!   length, so a damaged file fails with [`FormatError::Checksum`] before anything else is read.
+//! - **A crafted file** can carry a matching checksum (it is not a signature: anyone can
+//!   recompute it with [`seal`]). What validation then still guarantees: no access out of range,
+//!   no panic, no walk longer than the node count, no NaN or infinite geometry, no threshold that
+//!   lets a degenerate triangle be hit, no hittable triangle (finite threshold) or sphere outside
+//!   the header's bounds (by more than 4 ulp of the bounds' magnitude for a vertex `v0 + e`, the
+//!   rounding of the stored edge), no split plane outside them. What it cannot rule out: any
+//!   other geometry, tree or ids than the ones the writer meant. Such a file traces, in bounded
+//!   time, to hits that are wrong for the intended scene but consistent for the one stored.
 
 use crate::node::{LEAF, Node};
 use crate::sphere::Sphere;
@@ -56,7 +76,7 @@ use glam::Vec3;
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 4;
+pub const VERSION: u32 = 5;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).
@@ -86,8 +106,10 @@ pub mod header {
     pub const MATERIALS_OFFSET: usize = 21;
     pub const BUILD_MS: usize = 22;
     pub const INPUT_IDS_OFFSET: usize = 23;
+    /// Two words: the [`super::checksum`], low word first.
+    pub const CHECKSUM: usize = 24;
     /// First reserved word; `RESERVED .. HEADER_WORDS` must be zero.
-    pub const RESERVED: usize = 24;
+    pub const RESERVED: usize = 26;
 }
 
 /// The CONTENTS bits.
@@ -126,6 +148,8 @@ pub enum FormatError {
         header: u32,
         actual: usize,
     },
+    /// The stored checksum is not the words' [`checksum`]: the file was damaged after writing.
+    Checksum,
     /// A reserved header word is not zero.
     ReservedNotZero,
     /// A count times its stride overflows `usize`, or the primitive total overflows `u32`.
@@ -139,9 +163,13 @@ pub enum FormatError {
     /// A triangle, sphere, normal or texture coordinate is NaN or infinite, a radius ≤ 0, or a
     /// triangle's stored threshold is not the one its vertices give.
     NonFiniteGeometry,
+    /// A hittable triangle (finite threshold) or a sphere reaches outside the header's bounds.
+    OutsideBounds {
+        prim: u32,
+    },
     /// The tree has no node, or its depth exceeds [`MAX_DEPTH`] or disagrees with DEPTH.
     BadDepth,
-    /// An interior node's split is not finite.
+    /// An interior node's split is not finite or lies outside the scene bounds.
     BadSplit {
         node: u32,
     },
@@ -182,6 +210,10 @@ impl core::fmt::Display for FormatError {
                     "header says {header} words, the data has {actual} (truncated or padded)"
                 )
             }
+            Self::Checksum => write!(
+                f,
+                "checksum mismatch: the file was damaged after it was written (rebuild it with `kdray build`)"
+            ),
             Self::ReservedNotZero => write!(f, "reserved header words are not zero"),
             Self::CountOverflow => write!(f, "a count overflows"),
             Self::SectionOutOfBounds => {
@@ -193,7 +225,15 @@ impl core::fmt::Display for FormatError {
                 write!(f, "geometry has NaN/infinite values or a radius <= 0")
             }
             Self::BadDepth => write!(f, "tree depth is zero-sized, above {MAX_DEPTH} or wrong"),
-            Self::BadSplit { node } => write!(f, "node {node}: split plane is not finite"),
+            Self::OutsideBounds { prim } => {
+                write!(f, "primitive {prim} lies outside the scene bounds")
+            }
+            Self::BadSplit { node } => {
+                write!(
+                    f,
+                    "node {node}: split plane is not finite or outside the bounds"
+                )
+            }
             Self::BadChild { node } => write!(f, "node {node}: child index breaks the tree order"),
             Self::BadEmptyFlag { node } => {
                 write!(
@@ -258,6 +298,10 @@ impl<'a> Scene<'a> {
                 header: h(header::TOTAL_WORDS),
                 actual: words.len(),
             });
+        }
+        let stored = u64::from(h(header::CHECKSUM)) | u64::from(h(header::CHECKSUM + 1)) << 32;
+        if stored != checksum(words) {
+            return Err(FormatError::Checksum);
         }
         if words[header::RESERVED..HEADER_WORDS]
             .iter()
@@ -409,6 +453,7 @@ impl<'a> Scene<'a> {
         {
             return Err(FormatError::NonFiniteGeometry);
         }
+        scene.check_inside_bounds()?;
         if let Some(i) = scene.input_ids.iter().position(|&id| id as usize >= n_tris) {
             return Err(FormatError::BadInputId { triangle: i as u32 });
         }
@@ -447,7 +492,9 @@ impl<'a> Scene<'a> {
                 self.validate_leaf(index, node, n_prims)?;
                 current = stack.pop();
             } else {
-                if !node.split().is_finite() {
+                let axis = node.axis();
+                let inside = (self.bounds[0][axis]..=self.bounds[1][axis]).contains(&node.split());
+                if !inside {
                     return Err(FormatError::BadSplit { node: index });
                 }
                 let above = node.above_child();
@@ -468,6 +515,37 @@ impl<'a> Scene<'a> {
             return Err(FormatError::BadChild { node: next });
         }
         Ok(max_depth)
+    }
+
+    /// Every hittable triangle (finite threshold) and every sphere lies inside the header's
+    /// bounds: `v0` exactly, `v0 + e1` and `v0 + e2` within 4 ulp of the bounds' magnitude (the
+    /// rounding of the stored edges), a sphere's `c ± r` within the same slack.
+    fn check_inside_bounds(&self) -> Result<(), FormatError> {
+        let [lo, hi] = self.bounds;
+        let slack = lo.abs().max(hi.abs()) * (4.0 * f32::EPSILON);
+        let (lo_s, hi_s) = (lo - slack, hi + slack);
+        let inside = |p: Vec3, lo: Vec3, hi: Vec3| p.cmpge(lo).all() && p.cmple(hi).all();
+        for (i, t) in self.tris.iter().enumerate() {
+            if t[9] == f32::INFINITY {
+                continue; // never hit, and the builder leaves it out of the bounds
+            }
+            let (tri, _) = self.prepared_triangle(i as u32);
+            let ok = inside(tri.v0, lo, hi)
+                && inside(tri.v0 + tri.e1, lo_s, hi_s)
+                && inside(tri.v0 + tri.e2, lo_s, hi_s);
+            if !ok {
+                return Err(FormatError::OutsideBounds { prim: i as u32 });
+            }
+        }
+        for i in 0..self.sphere_count() {
+            let s = self.sphere(i);
+            let r = Vec3::splat(s.radius);
+            if !(inside(s.center - r, lo_s, hi_s) && inside(s.center + r, lo_s, hi_s)) {
+                let prim = self.tri_count() + i;
+                return Err(FormatError::OutsideBounds { prim });
+            }
+        }
+        Ok(())
     }
 
     fn validate_leaf(&self, index: u32, node: Node, n_prims: u32) -> Result<(), FormatError> {
@@ -637,6 +715,44 @@ impl<'a> Scene<'a> {
     #[inline]
     pub fn material(&self, prim: u32) -> u32 {
         self.materials.get(prim as usize).copied().unwrap_or(0)
+    }
+}
+
+/// FNV-1a's 64-bit offset basis and prime (Fowler, Noll, Vo; IETF draft-eastlake-fnv).
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
+
+/// The checksum stored in the header's CHECKSUM words: 64-bit FNV-1a over `words` taken whole
+/// (not byte by byte), in four interleaved lanes so that the multiplies do not wait on each other,
+/// with the CHECKSUM words themselves counted as 0; then the length and the four lanes folded in.
+/// See "Corruption" in the module doc for what it detects.
+pub fn checksum(words: &[u32]) -> u64 {
+    let mut head = [0u32; HEADER_WORDS];
+    let n = words.len().min(HEADER_WORDS);
+    head[..n].copy_from_slice(&words[..n]);
+    head[header::CHECKSUM] = 0;
+    head[header::CHECKSUM + 1] = 0;
+    let mut lanes = [0u64, 1, 2, 3].map(|k| FNV_OFFSET ^ k);
+    let mut feed = |chunk: &[u32]| {
+        for (h, &w) in lanes.iter_mut().zip(chunk) {
+            *h = (*h ^ u64::from(w)).wrapping_mul(FNV_PRIME);
+        }
+    };
+    head[..n].chunks(4).for_each(&mut feed);
+    words[n..].chunks(4).for_each(&mut feed);
+    let step = |h: u64, w: u64| (h ^ w).wrapping_mul(FNV_PRIME);
+    lanes
+        .into_iter()
+        .fold(step(FNV_OFFSET, words.len() as u64), step)
+}
+
+/// Stores `words`' [`checksum`] in its header (the writer's last step). Does nothing to an
+/// array shorter than the header.
+pub fn seal(words: &mut [u32]) {
+    if words.len() >= HEADER_WORDS {
+        let sum = checksum(words);
+        words[header::CHECKSUM] = sum as u32;
+        words[header::CHECKSUM + 1] = (sum >> 32) as u32;
     }
 }
 

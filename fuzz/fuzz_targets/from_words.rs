@@ -1,22 +1,29 @@
 //! `Scene::from_words` on arbitrary bytes (read as little-endian words) must return, never panic
-//! or hang; a scene it accepts is then traced, scalar and in 4- and 8-wide packets, along a fixed
-//! fan of rays through its box, and the three must agree (the same `t` bits; a different
-//! primitive only as a tie at that `t`), for closest hits and for occlusion.
+//! or hang. The input is first re-sealed (its header's checksum recomputed, as a crafted file
+//! would be), so that mutations reach the checks behind the checksum instead of all failing it;
+//! inputs whose length is 4 more than a multiple of 64 bytes are left as they came, to keep the
+//! checksum path covered. A scene it accepts is then traced, scalar and in 4- and 8-wide packets,
+//! along a fixed fan of rays through its box, and the three must agree (the same `t` bits; a
+//! different primitive only as a tie at that `t`), for closest hits and for occlusion.
 //!
 //! Run: `cargo +nightly fuzz run from_words fuzz/corpus/from_words` (from the repository root);
 //! the corpus starts from small valid scenes (`fuzz/seed.sh`).
 #![no_main]
 
 use glam::Vec3;
+use kdray_core::format::seal;
 use kdray_core::simd::{HitPacket, Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::{Hit, Ray, Scene};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let words: Vec<u32> = data
+    let mut words: Vec<u32> = data
         .chunks_exact(4)
         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
+    if data.len() % 64 != 4 {
+        seal(&mut words);
+    }
     let Ok(scene) = Scene::from_words(&words) else {
         return;
     };

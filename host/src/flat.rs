@@ -141,6 +141,7 @@ pub fn serialize(
         words[header::BOUNDS + k] = v.to_bits();
     }
     words[header::BUILD_MS] = build_ms.to_bits();
+    format::seal(&mut words);
     Ok(words)
 }
 
