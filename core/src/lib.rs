@@ -24,6 +24,9 @@
 //! - [`format`], [`node`]: the flat scene format and its validation.
 //! - [`traverse`]: scalar closest-hit and any-hit traversal.
 //! - [`render`]: the render kernel, a path tracer writing into a caller's buffer.
+//! - [`description`]: the render description (camera, settings, materials, lights) that a target
+//!   reads next to the scene's words; [`words`]: bytes (`include_bytes!`, a fetch) viewed as
+//!   words without `unsafe`; [`color`]: linear radiance to 8-bit sRGB, alike on every target.
 //! - [`simd`]: 4- and 8-wide ray packets, the lane trait they are generic over, and the packet
 //!   kernels, which match the scalar ones lane by lane.
 //!
@@ -35,6 +38,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod camera;
+pub mod color;
+pub mod description;
 pub mod format;
 pub mod isa;
 pub mod math;
@@ -47,6 +52,7 @@ pub mod simd;
 pub mod sphere;
 pub mod traverse;
 pub mod triangle;
+pub mod words;
 
 pub use format::{FormatError, Scene};
 pub use ray::{Hit, Ray};

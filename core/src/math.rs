@@ -19,6 +19,12 @@ pub fn cos(x: f32) -> f32 {
     libm::cosf(x)
 }
 
+/// `x` to the power `y`.
+#[inline]
+pub fn powf(x: f32, y: f32) -> f32 {
+    libm::powf(x, y)
+}
+
 /// Sine and cosine of the same angle.
 #[inline]
 pub fn sin_cos(x: f32) -> (f32, f32) {

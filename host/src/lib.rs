@@ -11,5 +11,6 @@ pub mod scene;
 pub use error::{Error, Result};
 pub use geometry::Geometry;
 pub mod build;
+pub mod description;
 pub mod flat;
 pub mod rays;

@@ -3,7 +3,7 @@
 
 mod commands;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -27,6 +27,11 @@ enum Command {
         input: PathBuf,
         #[arg(short, long)]
         out: PathBuf,
+        /// Also write the scene's render description (camera, settings, materials, lights) for
+        /// firmware and WASM targets, e.g. SCENE.kdr (needs a .toml scene; extension of the
+        /// contract).
+        #[arg(long)]
+        description: Option<PathBuf>,
         #[command(flatten)]
         build: commands::BuildArgs,
     },
@@ -54,7 +59,25 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => commands::render(&args),
-        Command::Build { input, out, build } => commands::build(&input, &out, &build),
+        Command::Build {
+            input,
+            out,
+            description,
+            build,
+        } => {
+            let is_toml = input
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+            if description.is_some() && !is_toml {
+                Cli::command()
+                    .error(
+                        clap::error::ErrorKind::ArgumentConflict,
+                        "--description needs a scene file (.toml) as INPUT",
+                    )
+                    .exit();
+            }
+            commands::build(&input, &out, description.as_deref(), &build)
+        }
         Command::Info { file } => commands::info(&file),
         Command::Trace(args) => commands::trace(&args),
         Command::Rays {

@@ -124,6 +124,22 @@ fn default_ior() -> f32 {
 }
 
 impl MaterialDesc {
+    /// The core's material for this description.
+    pub fn to_core(&self) -> kdray_core::render::Material {
+        use kdray_core::render::{self, Material};
+        Material {
+            kind: match self.kind {
+                MaterialKind::Diffuse => render::MaterialKind::Diffuse,
+                MaterialKind::Mirror => render::MaterialKind::Mirror,
+                MaterialKind::Glass => render::MaterialKind::Glass,
+                MaterialKind::Emissive => render::MaterialKind::Emissive,
+            },
+            albedo: glam::Vec3::from(self.albedo),
+            emission: glam::Vec3::from(self.emission),
+            ior: self.ior,
+        }
+    }
+
     /// The material used when a scene declares none: diffuse 0.8 grey, named `default`.
     pub fn fallback() -> Self {
         Self {

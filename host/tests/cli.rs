@@ -358,3 +358,32 @@ fn render_errors_name_the_file_and_usage_errors_exit_2() {
         assert_eq!(kdray(args).status.code(), Some(2), "{args:?}");
     }
 }
+
+#[test]
+fn build_writes_a_render_description_for_scene_files_only() {
+    let d = dir("description");
+    let (kdt, kdr) = (d.join("room.kdt"), d.join("room.kdr"));
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/default.toml");
+    let o = kdray(&["build", scene, "-o", s(&kdt), "--description", s(&kdr)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("render description"), "{stdout}");
+    let words = |p: &Path| -> Vec<u32> {
+        let bytes = std::fs::read(p).unwrap();
+        bytes
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+            .collect()
+    };
+    let (scene_words, desc_words) = (words(&kdt), words(&kdr));
+    let scene = kdray_core::Scene::from_words(&scene_words).unwrap();
+    let desc = kdray_core::description::Description::from_words(&desc_words, &scene, &scene_words)
+        .unwrap();
+    assert_eq!(desc.settings().spp, 64);
+    // A mesh has no camera or materials to describe: a usage error.
+    let mesh = d.join("one.tri");
+    tri_file(&mesh, &[[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]]);
+    let o = kdray(&["build", s(&mesh), "-o", s(&kdt), "--description", s(&kdr)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--description"));
+}

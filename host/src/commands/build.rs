@@ -57,6 +57,10 @@ impl BuildArgs {
     }
 }
 
+/// The seed written into render descriptions: `kdray render`'s default, so that a target renders
+/// what `kdray render SCENE.toml` does.
+pub const DESCRIPTION_SEED: u64 = 1;
+
 /// Builds `geom` with a progress bar; returns the words and the build time in ms.
 pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result<(Vec<u32>, f64)> {
     let progress = AtomicU64::new(0);
@@ -98,10 +102,28 @@ pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)
     build_words(path, &geom, &args.params())
 }
 
-pub fn build(input: &Path, out: &Path, args: &BuildArgs) -> Result<()> {
-    let geom = load::load_input(input)?;
+/// `kdray build`: the tree into `out` and, for a scene file, its render description into
+/// `description` (what a firmware or WASM target needs besides the tree: camera, settings,
+/// materials, lights; `kdray_core::description`).
+pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildArgs) -> Result<()> {
+    let file = match description {
+        Some(_) => Some(kdray::scene::load_scene(input)?),
+        None => None,
+    };
+    let geom = match &file {
+        Some(file) => file.geometry()?,
+        None => load::load_input(input)?,
+    };
     let (words, build_ms) = build_words(input, &geom, &args.params())?;
     flat::write_kdt(out, &words)?;
+    let desc = match (&file, description) {
+        (Some(file), Some(path)) => {
+            let desc = kdray::description::encode(file, &words, DESCRIPTION_SEED)?;
+            flat::write_kdt(path, &desc)?;
+            Some((path, desc.len()))
+        }
+        _ => None,
+    };
     let scene = Scene::from_words(&words).map_err(|e| Error::new(out, e.to_string()))?;
     println!(
         "wrote {}: {} triangles, {} spheres, {} nodes, {} bytes, build_ms={build_ms:.1}",
@@ -111,6 +133,9 @@ pub fn build(input: &Path, out: &Path, args: &BuildArgs) -> Result<()> {
         scene.node_count(),
         words.len() * 4
     );
+    if let Some((path, len)) = desc {
+        println!("wrote {}: render description, {len} words", path.display());
+    }
     Ok(())
 }
 

@@ -9,8 +9,9 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use kdray::build::BuildParams;
 use kdray::error::{Error, Result};
-use kdray::scene::{MaterialDesc, MaterialKind, SceneFile, load_scene};
+use kdray::scene::{SceneFile, load_scene};
 use kdray_core::Scene;
+use kdray_core::color::srgb8;
 use kdray_core::render::{self, Bounces, Material, Settings};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -75,7 +76,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     let geom = file.geometry()?;
     let (words, build_ms) = build_words(&file.path, &geom, &BuildParams::default())?;
     let scene = Scene::from_words(&words).map_err(|e| Error::new(&file.path, e.to_string()))?;
-    let materials: Vec<Material> = file.materials.iter().map(material).collect();
+    let materials: Vec<Material> = file.materials.iter().map(|m| m.to_core()).collect();
     let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
     render::emitters(&scene, &materials, &mut lights);
 
@@ -160,36 +161,6 @@ fn settings(file: &SceneFile, args: &RenderArgs) -> Result<Settings> {
     })
 }
 
-/// The core's material for a scene file's description.
-fn material(m: &MaterialDesc) -> Material {
-    Material {
-        kind: match m.kind {
-            MaterialKind::Diffuse => render::MaterialKind::Diffuse,
-            MaterialKind::Mirror => render::MaterialKind::Mirror,
-            MaterialKind::Glass => render::MaterialKind::Glass,
-            MaterialKind::Emissive => render::MaterialKind::Emissive,
-        },
-        albedo: Vec3::from(m.albedo),
-        emission: Vec3::from(m.emission),
-        ior: m.ior,
-    }
-}
-
-/// The sRGB transfer function (IEC 61966-2-1) of a linear value clamped to `[0, 1]`, as 8 bits.
-fn srgb8(linear: f32) -> u8 {
-    let c = if linear.is_nan() {
-        0.0
-    } else {
-        linear.clamp(0.0, 1.0)
-    };
-    let s = if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0 + 0.5) as u8
-}
-
 /// Writes linear RGB pixels as an 8-bit sRGB PNG.
 fn write_png(path: &Path, pixels: &[[f32; 3]], width: u32, height: u32) -> Result<()> {
     let bytes: Vec<u8> = pixels.iter().flatten().map(|&c| srgb8(c)).collect();
@@ -202,21 +173,4 @@ fn write_png(path: &Path, pixels: &[[f32; 3]], width: u32, height: u32) -> Resul
     let mut writer = encoder.write_header().map_err(png_error)?;
     writer.write_image_data(&bytes).map_err(png_error)?;
     writer.finish().map_err(png_error)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::srgb8;
-
-    #[test]
-    fn srgb_transfer_hits_its_anchor_points() {
-        assert_eq!(srgb8(0.0), 0);
-        assert_eq!(srgb8(1.0), 255);
-        assert_eq!(srgb8(2.0), 255);
-        assert_eq!(srgb8(-1.0), 0);
-        assert_eq!(srgb8(f32::NAN), 0);
-        // Linear 0.5 is sRGB 0.7354 (188 of 255); 0.0031308 is the knee, 0.04045 in sRGB (10).
-        assert_eq!(srgb8(0.5), 188);
-        assert_eq!(srgb8(0.003_130_8), 10);
-    }
 }
