@@ -21,9 +21,10 @@ pub fn srgb8(linear: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
-/// An opaque RGBA pixel of `linear · scale` (scale: e.g. `1 / frames` of an accumulated sum).
+/// An opaque RGBA pixel of `sum / samples`, a division as [`crate::render::render_rows`] does it,
+/// so a sum of `n` samples resolved with `samples = n` gives the host's pixel bit for bit.
 #[inline]
-pub fn rgba8(linear: [f32; 3], scale: f32) -> [u8; 4] {
-    let [r, g, b] = linear.map(|c| srgb8(c * scale));
+pub fn rgba8(sum: [f32; 3], samples: f32) -> [u8; 4] {
+    let [r, g, b] = sum.map(|c| srgb8(c / samples));
     [r, g, b, 255]
 }

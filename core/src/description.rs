@@ -43,6 +43,7 @@ use crate::format::Scene;
 use crate::math;
 use crate::ray::Ray;
 use crate::render::{Bounces, Material, MaterialKind, Settings};
+use crate::words::Fnv1a;
 use glam::Vec3;
 
 /// "KDRD" as a little-endian word.
@@ -149,22 +150,19 @@ impl core::fmt::Display for DescError {
     }
 }
 
-/// FNV-1a (32-bit) of the scene words' little-endian bytes, the header's BUILD_MS word (a
+/// [`Fnv1a`] of the scene words, the header's BUILD_MS word (a
 /// timing, different at every build of the same scene) counted as 0: ties a description to its
 /// scene.
 pub fn scene_hash(words: &[u32]) -> u32 {
-    let mut h = 0x811c_9dc5u32;
+    let mut h = Fnv1a::default();
     for (i, &w) in words.iter().enumerate() {
-        let w = if i == crate::format::header::BUILD_MS {
+        h.word(if i == crate::format::header::BUILD_MS {
             0
         } else {
             w
-        };
-        for b in w.to_le_bytes() {
-            h = (h ^ u32::from(b)).wrapping_mul(0x0100_0193);
-        }
+        });
     }
-    h
+    h.0
 }
 
 /// A validated render description. Materials are copied out of the words; the lights borrow

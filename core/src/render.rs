@@ -24,13 +24,14 @@
 //! does not depend on how rows are split between threads.
 
 use crate::camera::Camera;
-use crate::format::Scene;
+use crate::format::{Scene, contents};
 use crate::math;
 use crate::optics;
 use crate::ray::{Hit, Ray};
 use crate::sampling::{Onb, Pcg32, cosine_hemisphere};
 use crate::simd::lanes::set_lanes;
 use crate::simd::{Lanes, RayPacket, f32x8};
+use crate::traverse::{Contents, Mixed, Spheres, Triangles};
 use crate::triangle::shading_normal;
 use core::f32::consts::PI;
 use glam::Vec3;
@@ -128,9 +129,35 @@ impl core::fmt::Display for RenderError {
 /// `lights` lists the primitives whose material emits (every one of them: emission that a
 /// diffuse bounce lands on is counted only through this list); [`emitters`] finds them.
 ///
+/// Traces with the kernels monomorphized for the scene's contents ([`render_rows_with`]).
+///
 /// # Errors
 /// [`RenderError`] for an empty image or a buffer that does not fit the image.
 pub fn render_rows<C: Camera>(
+    scene: &Scene,
+    camera: &C,
+    materials: &[Material],
+    lights: &[u32],
+    settings: &Settings,
+    first_row: u32,
+    out: &mut [[f32; 3]],
+) -> Result<(), RenderError> {
+    let (m, l, s, row) = (materials, lights, settings, first_row);
+    match scene.contents() & (contents::TRIANGLES | contents::SPHERES) {
+        contents::TRIANGLES => render_rows_with::<Triangles, C>(scene, camera, m, l, s, row, out),
+        contents::SPHERES => render_rows_with::<Spheres, C>(scene, camera, m, l, s, row, out),
+        _ => render_rows_with::<Mixed, C>(scene, camera, m, l, s, row, out),
+    }
+}
+
+/// [`render_rows`] with the traversal kernels for a fixed [`Contents`]: firmware that names its
+/// contents links only that kernel (the bytes table in `targets/cortex-m4f/README.md`). The scene
+/// must hold no other kind of primitive (one would be tested as the wrong kind, never out of
+/// bounds).
+///
+/// # Errors
+/// As [`render_rows`].
+pub fn render_rows_with<K: Contents, C: Camera>(
     scene: &Scene,
     camera: &C,
     materials: &[Material],
@@ -155,7 +182,7 @@ pub fn render_rows<C: Camera>(
     };
     for (k, pixel) in out.iter_mut().enumerate() {
         let (x, y) = ((k % w as usize) as u32, first_row + (k / w as usize) as u32);
-        let sum = render_pixel(&ctx, camera, x, y);
+        let sum = render_pixel::<K, C>(&ctx, camera, x, y);
         *pixel = (sum / settings.spp as f32).to_array();
     }
     Ok(())
@@ -199,7 +226,7 @@ pub fn emitters(scene: &Scene, materials: &[Material], out: &mut [u32]) -> usize
 }
 
 /// The sum of pixel `(x, y)`'s sample radiances.
-fn render_pixel<C: Camera>(ctx: &Context, camera: &C, x: u32, y: u32) -> Vec3 {
+fn render_pixel<K: Contents, C: Camera>(ctx: &Context, camera: &C, x: u32, y: u32) -> Vec3 {
     let settings = ctx.settings;
     let pixel = u64::from(y) * u64::from(settings.width) + u64::from(x);
     let mut sum = Vec3::ZERO;
@@ -220,8 +247,8 @@ fn render_pixel<C: Camera>(ctx: &Context, camera: &C, x: u32, y: u32) -> Vec3 {
         }
         let paths = &mut paths[..n];
         match settings.bounces {
-            Bounces::Packets => trace_paths_packed(ctx, paths),
-            Bounces::SingleRays => paths.iter_mut().for_each(|p| trace_path(ctx, p)),
+            Bounces::Packets => trace_paths_packed::<K>(ctx, paths),
+            Bounces::SingleRays => paths.iter_mut().for_each(|p| trace_path::<K>(ctx, p)),
         }
         for path in paths.iter() {
             // A non-finite sample (a NaN from a degenerate normal, say) is dropped, not spread.
@@ -273,17 +300,17 @@ impl Path {
 }
 
 /// One path all by itself: every ray through the scalar walk.
-fn trace_path(ctx: &Context, path: &mut Path) {
-    let mut hit = ctx.scene.intersect(&path.ray);
+fn trace_path<K: Contents>(ctx: &Context, path: &mut Path) {
+    let mut hit = ctx.scene.intersect_with::<K>(&path.ray);
     for depth in 1..=ctx.settings.max_depth {
         let (goes_on, shadow) = vertex(ctx, path, &hit);
         if let Some(shadow) = shadow {
-            path.resolve(&shadow, ctx.scene.occluded(&shadow.ray));
+            path.resolve(&shadow, ctx.scene.occluded_with::<K>(&shadow.ray));
         }
         if !goes_on || depth == ctx.settings.max_depth {
             return;
         }
-        hit = ctx.scene.intersect(&path.ray);
+        hit = ctx.scene.intersect_with::<K>(&path.ray);
     }
 }
 
@@ -291,7 +318,7 @@ fn trace_path(ctx: &Context, path: &mut Path) {
 /// so are its shadow rays, with the lanes of finished paths (or of paths without a shadow ray)
 /// inactive. Every lane does exactly what [`trace_path`] does for it, in the same order, and the
 /// packet traversal finds what the scalar walk finds, so the image is the same.
-fn trace_paths_packed(ctx: &Context, paths: &mut [Path]) {
+fn trace_paths_packed<K: Contents>(ctx: &Context, paths: &mut [Path]) {
     let scene = ctx.scene;
     let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
     let mut live = 0u32;
@@ -299,7 +326,7 @@ fn trace_paths_packed(ctx: &Context, paths: &mut [Path]) {
         rays[i] = path.ray;
         live |= 1 << i;
     }
-    let mut hits = scene.intersect_packet(&packet(&rays, live));
+    let mut hits = scene.intersect_packet_with::<K, f32x8>(&packet(&rays, live));
     for depth in 1..=ctx.settings.max_depth {
         let mut shadows = [None; 8];
         let (mut next, mut waiting) = (0u32, 0u32);
@@ -313,7 +340,9 @@ fn trace_paths_packed(ctx: &Context, paths: &mut [Path]) {
             next |= u32::from(goes_on) << i;
         }
         if waiting != 0 {
-            let occluded = scene.occluded_packet(&packet(&rays, waiting)).bitmask();
+            let occluded = scene
+                .occluded_packet_with::<K, f32x8>(&packet(&rays, waiting))
+                .bitmask();
             for i in set_lanes(waiting) {
                 if let Some(shadow) = &shadows[i] {
                     paths[i].resolve(shadow, occluded >> i & 1 == 1);
@@ -327,7 +356,7 @@ fn trace_paths_packed(ctx: &Context, paths: &mut [Path]) {
         for i in set_lanes(live) {
             rays[i] = paths[i].ray;
         }
-        hits = scene.intersect_packet(&packet(&rays, live));
+        hits = scene.intersect_packet_with::<K, f32x8>(&packet(&rays, live));
     }
 }
 

@@ -73,3 +73,32 @@ macro_rules! include_words {
         &ALIGNED.0
     }};
 }
+
+/// FNV-1a, 32-bit (Fowler, Noll, Vo; the parameters of draft-eastlake-fnv), over words as their
+/// little-endian bytes: the scene hash of a render description and the pixel checksum that the
+/// firmware and the host print.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fnv1a(pub u32);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Self(0x811c_9dc5)
+    }
+}
+
+impl Fnv1a {
+    /// Adds one word's four bytes, low byte first.
+    #[inline]
+    pub fn word(&mut self, w: u32) {
+        for b in w.to_le_bytes() {
+            self.0 = (self.0 ^ u32::from(b)).wrapping_mul(0x0100_0193);
+        }
+    }
+
+    /// Adds the bits of pixels of linear RGB, row-major, red first: the checksum of an image.
+    pub fn pixels(&mut self, pixels: &[[f32; 3]]) {
+        for c in pixels.iter().flatten() {
+            self.word(c.to_bits());
+        }
+    }
+}

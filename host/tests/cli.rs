@@ -380,6 +380,26 @@ fn build_writes_a_render_description_for_scene_files_only() {
     let desc = kdray_core::description::Description::from_words(&desc_words, &scene, &scene_words)
         .unwrap();
     assert_eq!(desc.settings().spp, 64);
+    // `render --checksum` prints the pixels' checksum, the same on one thread and two.
+    let sums: Vec<String> = ["1", "2"]
+        .iter()
+        .map(|threads| {
+            let png = d.join(format!("room-{threads}.png"));
+            let args = ["render", "-o", s(&png), "--size", "8x8", "--spp", "1"];
+            let o = kdray(&[&args[..], &["--checksum", "--threads", threads]].concat());
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let line = String::from_utf8_lossy(&o.stdout).to_string();
+            let sum = line
+                .split("checksum=")
+                .nth(1)
+                .expect("a checksum")
+                .trim()
+                .to_string();
+            assert_eq!(sum.len(), 8, "{line}");
+            sum
+        })
+        .collect();
+    assert_eq!(sums[0], sums[1]);
     // A mesh has no camera or materials to describe: a usage error.
     let mesh = d.join("one.tri");
     tri_file(&mesh, &[[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]]);

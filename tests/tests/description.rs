@@ -354,5 +354,29 @@ fn srgb_transfer_hits_its_anchor_points() {
     // Linear 0.5 is sRGB 0.7354 (188 of 255); 0.0031308 is the knee, 0.04045 in sRGB (10).
     assert_eq!(srgb8(0.5), 188);
     assert_eq!(srgb8(0.003_130_8), 10);
-    assert_eq!(rgba8([2.0, 1.0, 0.0], 0.5), [255, 188, 0, 255]);
+    assert_eq!(rgba8([2.0, 1.0, 0.0], 2.0), [255, 188, 0, 255]);
+}
+
+#[test]
+fn the_kernel_a_target_names_renders_what_render_rows_does() {
+    use kdray_core::traverse::{Mixed, Triangles};
+    // The default room without its spheres: triangles only.
+    let mut file = SceneFile::default_scene();
+    file.spheres.clear();
+    let words = scene_words(&file.geometry().unwrap(), 80.0);
+    let scene = Scene::from_words(&words).unwrap();
+    let desc = kdray::description::encode(&file, &words, 3).unwrap();
+    let d = Description::from_words(&desc, &scene, &words).unwrap();
+    let camera = d.camera::<Pinhole>().unwrap();
+    let mut s = d.settings();
+    (s.width, s.height, s.spp, s.bounces) = (10, 10, 2, Bounces::SingleRays);
+    let (m, l) = (d.materials(), d.lights());
+    let mut images = [[[0.0f32; 3]; 100]; 3];
+    render::render_rows(&scene, &camera, m, l, &s, 0, &mut images[0]).unwrap();
+    render::render_rows_with::<Triangles, _>(&scene, &camera, m, l, &s, 0, &mut images[1]).unwrap();
+    render::render_rows_with::<Mixed, _>(&scene, &camera, m, l, &s, 0, &mut images[2]).unwrap();
+    let bits = |px: &[[f32; 3]]| px.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&images[0]), bits(&images[1]));
+    assert_eq!(bits(&images[0]), bits(&images[2]));
+    assert!(images[0].iter().flatten().any(|&c| c > 0.0));
 }

@@ -13,6 +13,7 @@ use kdray::scene::{SceneFile, load_scene};
 use kdray_core::Scene;
 use kdray_core::color::srgb8;
 use kdray_core::render::{self, Bounces, Material, Settings};
+use kdray_core::words::Fnv1a;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -47,6 +48,10 @@ pub struct RenderArgs {
     /// 8-wide packets) or `single` (each ray through the scalar walk). Same image either way.
     #[arg(long, value_enum, default_value_t = BouncesArg::Packets)]
     pub bounces: BouncesArg,
+    /// Also print `checksum=` of the image's linear pixels (FNV-1a of their f32 bits, the
+    /// checksum the firmware in targets/cortex-m4f prints) (extension of the contract).
+    #[arg(long)]
+    pub checksum: bool,
 }
 
 /// `--bounces`: the CLI's names for [`Bounces`].
@@ -112,9 +117,17 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     let render_ms = start.elapsed().as_secs_f64() * 1e3;
 
     write_png(&args.out, &pixels, settings.width, settings.height)?;
+    let checksum = match args.checksum {
+        true => {
+            let mut h = Fnv1a::default();
+            h.pixels(&pixels);
+            format!(" checksum={:08x}", h.0)
+        }
+        false => String::new(),
+    };
     println!(
         "wrote {}: {}x{}, {} spp, max_depth {}, {} triangles, {} spheres, build_ms={build_ms:.1} \
-         render_ms={render_ms:.1} threads={}",
+         render_ms={render_ms:.1} threads={}{checksum}",
         args.out.display(),
         settings.width,
         settings.height,

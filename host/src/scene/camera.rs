@@ -2,27 +2,12 @@
 
 use super::CameraDesc;
 use glam::Vec3;
-use kdray_core::Ray;
-use kdray_core::camera::{Camera, CameraError, Fisheye, Parallel, Pinhole, Span};
+use kdray_core::camera::{CameraError, Fisheye, Parallel, Pinhole, Span};
+use kdray_core::description::AnyCamera;
 
-/// Any of the cameras a scene file can describe.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum SceneCamera {
-    Pinhole(Pinhole),
-    Fisheye(Fisheye),
-    Parallel(Parallel),
-}
-
-impl Camera for SceneCamera {
-    #[inline]
-    fn ray(&self, x: f32, y: f32, width: u32, height: u32) -> Ray {
-        match self {
-            Self::Pinhole(c) => c.ray(x, y, width, height),
-            Self::Fisheye(c) => c.ray(x, y, width, height),
-            Self::Parallel(c) => c.ray(x, y, width, height),
-        }
-    }
-}
+/// Any of the cameras a scene file can describe: the core's [`AnyCamera`], which a target
+/// decodes from a render description.
+pub type SceneCamera = AnyCamera;
 
 impl CameraDesc {
     /// Builds the camera, with the core's checks.
