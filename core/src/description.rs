@@ -12,7 +12,7 @@
 //!  1  VERSION        1
 //!  2  TOTAL_WORDS    length of the whole array in words
 //!  3  SCENE_WORDS    TOTAL_WORDS of the scene it belongs to
-//!  4  SCENE_HASH     scene_hash() of that scene's words (BUILD_MS counted as 0)
+//!  4  SCENE_HASH     scene_hash() of that scene's words (BUILD_MS, CHECKSUM counted as 0)
 //!  5  WIDTH          image width, ≥ 1
 //!  6  HEIGHT         image height, ≥ 1 (WIDTH · HEIGHT ≤ 2²⁶)
 //!  7  SPP            samples per pixel, 1 ..= 2²⁰
@@ -150,17 +150,15 @@ impl core::fmt::Display for DescError {
     }
 }
 
-/// [`Fnv1a`] of the scene words, the header's BUILD_MS word (a
-/// timing, different at every build of the same scene) counted as 0: ties a description to its
-/// scene.
+/// [`Fnv1a`] of the scene words, the header's BUILD_MS word (a timing, different at every build
+/// of the same scene) and the CHECKSUM words (which cover BUILD_MS) counted as 0: ties a
+/// description to its scene, and still to the same scene rebuilt.
 pub fn scene_hash(words: &[u32]) -> u32 {
     let mut h = Fnv1a::default();
+    use crate::format::header::{BUILD_MS, CHECKSUM};
     for (i, &w) in words.iter().enumerate() {
-        h.word(if i == crate::format::header::BUILD_MS {
-            0
-        } else {
-            w
-        });
+        let varies = i == BUILD_MS || i == CHECKSUM || i == CHECKSUM + 1;
+        h.word(if varies { 0 } else { w });
     }
     h.0
 }

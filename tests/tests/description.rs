@@ -305,6 +305,8 @@ fn a_description_is_refused_for_another_scene() {
     // The same scene rebuilt (another BUILD_MS) still matches.
     let mut rebuilt = words.clone();
     rebuilt[kdray_core::format::header::BUILD_MS] = 123.5f32.to_bits();
+    kdray_core::format::seal(&mut rebuilt);
+    assert_ne!(rebuilt, words);
     let scene = Scene::from_words(&rebuilt).unwrap();
     assert!(Description::from_words(&desc, &scene, &rebuilt).is_ok());
 }
