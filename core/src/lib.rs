@@ -27,6 +27,7 @@
 //! - [`description`]: the render description (camera, settings, materials, lights) that a target
 //!   reads next to the scene's words; [`words`]: bytes (`include_bytes!`, a fetch) viewed as
 //!   words without `unsafe`; [`color`]: linear radiance to 8-bit sRGB, alike on every target.
+//! - [`spawn`]: origins of rays leaving a surface, offset by its floating-point error bounds.
 //! - [`simd`]: 4- and 8-wide ray packets, the lane trait they are generic over, and the packet
 //!   kernels, which match the scalar ones lane by lane.
 //!
@@ -49,6 +50,7 @@ pub mod ray;
 pub mod render;
 pub mod sampling;
 pub mod simd;
+pub mod spawn;
 pub mod sphere;
 pub mod traverse;
 pub mod triangle;

@@ -20,6 +20,10 @@
 //!   lands on it; after a diffuse bounce it is not, since next-event estimation counted it;
 //! - a ray that leaves the scene adds `background`.
 //!
+//! Bounce, refraction and shadow rays start from the hit point moved off its surface by a bound
+//! derived from that point's floating-point error ([`crate::spawn`]), so they never hit the
+//! surface they leave, at any scale.
+//!
 //! Each sample depends only on the pixel, the sample index and [`Settings::seed`], so an image
 //! does not depend on how rows are split between threads.
 
@@ -381,8 +385,9 @@ fn vertex(ctx: &Context, path: &mut Path, hit: &Hit) -> (bool, Option<Shadow>) {
     if path.count_emission {
         path.radiance += path.throughput * m.emission;
     }
-    let p = ray.at(hit.t);
-    let Some((geometric, shading)) = normals(scene, hit, p) else {
+    // The hit point rebuilt from the primitive, with its error bound (crate::spawn).
+    let point = scene.surface_point(hit, &ray);
+    let Some((geometric, shading)) = normals(scene, hit, point.p) else {
         return (false, None);
     };
     // Both normals turned to the side the ray comes from.
@@ -394,7 +399,7 @@ fn vertex(ctx: &Context, path: &mut Path, hit: &Hit) -> (bool, Option<Shadow>) {
     let rng = &mut path.rng;
     let dir = match m.kind {
         MaterialKind::Diffuse | MaterialKind::Emissive => {
-            let origin = offset(p, ng);
+            let origin = point.spawn_origin(ng);
             let factor = path.throughput * m.albedo;
             match direct_light(ctx, origin, ns, rng) {
                 Some((ray, light)) => shadow = Some(Shadow { ray, factor, light }),
@@ -419,16 +424,12 @@ fn vertex(ctx: &Context, path: &mut Path, hit: &Hit) -> (bool, Option<Shadow>) {
     };
     path.throughput *= m.albedo;
     path.count_emission = !diffuse || ctx.lights.is_empty();
-    // Leave the surface on the side the new direction goes to.
+    // Leave the surface on the side the new direction goes to, by the distance its rounding error
+    // calls for (pbrt-v4's `OffsetRayOrigin`, after Wächter & Binder, Ray Tracing Gems ch. 6; see
+    // crate::spawn), so the ray cannot hit the surface it leaves.
     let side = if dir.dot(ng) >= 0.0 { ng } else { -ng };
-    path.ray = Ray::new(offset(p, side), dir);
+    path.ray = Ray::new(point.spawn_origin(side), dir);
     (true, shadow)
-}
-
-/// `p` moved off its surface along the unit normal `n`, by [`SURFACE_OFFSET`] times
-/// `1 + |p|∞` (relative to `p`'s magnitude, absolute near the origin).
-fn offset(p: Vec3, n: Vec3) -> Vec3 {
-    p + n * (SURFACE_OFFSET * (1.0 + p.abs().max_element()))
 }
 
 /// Next-event estimation at a Lambertian point (`origin`, already off the surface, with unit
@@ -486,9 +487,9 @@ fn point_on(scene: &Scene, prim: u32, u1: f32, u2: f32) -> Option<(Vec3, Vec3, f
     ))
 }
 
-/// Relative distance a bounce starts from its surface, against self-intersection.
-const SURFACE_OFFSET: f32 = 1.0 / (1 << 16) as f32;
-/// Fraction of a shadow ray's length left out at the light's end.
+/// Fraction of a shadow ray's length left out at the light's end, so that the light's own surface
+/// (whose sampled point has rounding error) does not count as a blocker: pbrt-v4's
+/// `ShadowEpsilon` in `SpawnRayTo`, here 2⁻¹². The origin end needs no such slack (crate::spawn).
 const SHADOW_SLACK: f32 = 1.0 / (1 << 12) as f32;
 
 /// The unit geometric and shading normals at hit `hit` (point `p`), or `None` where they
