@@ -190,7 +190,7 @@ fn rays_leaving_a_sphere_never_hit_it_again_near_their_origin() {
     let mut hits = 0;
     while hits < CASES {
         let s = random_sphere(&mut rng);
-        let inside = rng.next_u64() % 4 == 0;
+        let inside = rng.next_u64() & 3 == 0;
         let origin = if inside {
             s.center + unit(&mut rng) * s.radius * uniform(&mut rng, 0.0, 0.9)
         } else {
