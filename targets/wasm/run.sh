@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Renders the default scene with the WASM module under Node, scalar and simd128 builds, and
+# compares each with the host's render of the same scene (`kdray render --checksum`): the
+# checksum of the linear pixels and every byte of the 8-bit image. Prints one line:
+#   wasm-node scalar=yes simd128=yes checksum=… host=… match=yes|no
+# and exits 1 unless both match. Usage: run.sh [SCENE.toml] (default: host/scenes/default.toml);
+# KDRAY_WASM_SIZE (default 32x32) and KDRAY_WASM_SPP (default 4) set the image.
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+root="$(cd "$here/../.." && pwd)"
+scene="${1:-$root/host/scenes/default.toml}"
+size="${KDRAY_WASM_SIZE:-32x32}"
+spp="${KDRAY_WASM_SPP:-4}"
+command -v node >/dev/null || { apt-get update -qq && apt-get install -y -qq nodejs >/dev/null; }
+
+cd "$root"
+cargo build --quiet -p kdray
+kdray="${CARGO_TARGET_DIR:-$root/target}/debug/kdray"
+CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}/targets" "$here/build.sh" >/dev/null
+
+out="$here/out"
+mkdir -p "$out"
+"$kdray" build "$scene" -o "$out/scene.kdt" --description "$out/scene.kdr" >/dev/null
+host_line=$("$kdray" render "$scene" --size "$size" --spp "$spp" --checksum -o "$out/host.png")
+host_sum=$(sed -n 's/.*checksum=\([0-9a-f]*\).*/\1/p' <<<"$host_line")
+
+status=0
+results=""
+sum=""
+for variant in scalar simd128; do
+  line=$(node "$here/compare.mjs" "$out/kdray_wasm_$variant.wasm" "$out/scene.kdt" \
+    "$out/scene.kdr" "$out/host.png" "${size%x*}" "${size#*x}" "$spp" "$host_sum") || status=1
+  echo "$line" >&2
+  results+=" $variant=$(sed -n 's/.*match=\([a-z]*\).*/\1/p' <<<"$line")"
+  sum=$(sed -n 's/.*checksum=\([0-9a-f]*\).*/\1/p' <<<"$line")
+done
+match=$([[ $status == 0 ]] && echo yes || echo no)
+echo "wasm-node$results checksum=$sum host=$host_sum size=$size spp=$spp match=$match"
+exit $status
