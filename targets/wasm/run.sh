@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Renders the default scene with the WASM module under Node, scalar and simd128 builds, and
 # compares each with the host's render of the same scene (`kdray render --checksum`): the
-# checksum of the linear pixels and every byte of the 8-bit image. Prints one line:
-#   wasm-node scalar=yes simd128=yes checksum=… host=… match=yes|no
+# checksum of the linear pixels and every byte of the 8-bit image; then traces the scene's
+# primary and diffuse benchmark rays (kd_trace, packets of 1, 4, 8) against `kdray trace`'s hits.
+# Prints one line:
+#   wasm-node scalar=yes simd128=yes trace=yes checksum=… host=… size=… spp=… match=yes|no
 # and exits 1 unless both match. Usage: run.sh [SCENE.toml] (default: host/scenes/default.toml);
 # KDRAY_WASM_SIZE (default 32x32) and KDRAY_WASM_SPP (default 4) set the image.
 set -euo pipefail
@@ -34,6 +36,17 @@ for variant in scalar simd128; do
   results+=" $variant=$(sed -n 's/.*match=\([a-z]*\).*/\1/p' <<<"$line")"
   sum=$(sed -n 's/.*checksum=\([0-9a-f]*\).*/\1/p' <<<"$line")
 done
+# kd_trace against `kdray trace`: primary and diffuse rays, every packet width, byte for byte.
+"$kdray" rays "$out/scene.kdt" -o "$out/primary.bin" --size "$size" >/dev/null
+"$kdray" rays "$out/scene.kdt" -o "$out/diffuse.bin" --size "$size" --kind diffuse >/dev/null
+trace=yes
+for kind in primary diffuse; do
+  "$kdray" trace "$out/scene.kdt" --rays "$out/$kind.bin" --out "$out/$kind-hits.bin" >/dev/null
+  for variant in scalar simd128; do
+    node "$here/trace-compare.mjs" "$out/kdray_wasm_$variant.wasm" "$out/scene.kdt" \
+      "$out/$kind.bin" "$out/$kind-hits.bin" >&2 || { trace=no; status=1; }
+  done
+done
 match=$([[ $status == 0 ]] && echo yes || echo no)
-echo "wasm-node$results checksum=$sum host=$host_sum size=$size spp=$spp match=$match"
+echo "wasm-node$results trace=$trace checksum=$sum host=$host_sum size=$size spp=$spp match=$match"
 exit $status
