@@ -38,6 +38,7 @@ use crate::simd::{Lanes, RayPacket, f32x8};
 use crate::traverse::{Contents, Mixed, Spheres, Triangles};
 use crate::triangle::shading_normal;
 use core::f32::consts::PI;
+use core::ops::Range;
 use glam::Vec3;
 
 /// How a surface scatters light.
@@ -186,10 +187,74 @@ pub fn render_rows_with<K: Contents, C: Camera>(
     };
     for (k, pixel) in out.iter_mut().enumerate() {
         let (x, y) = ((k % w as usize) as u32, first_row + (k / w as usize) as u32);
-        let sum = render_pixel::<K, C>(&ctx, camera, x, y);
-        *pixel = (sum / settings.spp as f32).to_array();
+        let mut sums = SampleSums::default();
+        render_pixel::<K, C>(&ctx, camera, x, y, 0..settings.spp, &mut sums);
+        *pixel = (sums.sum / settings.spp as f32).to_array();
     }
     Ok(())
+}
+
+/// Everything a render reads, for callers that choose each pixel's samples themselves
+/// (progressive passes, adaptive sampling): [`Frame::add_samples`] renders any range of a
+/// pixel's samples. `settings.spp` is not read.
+#[derive(Clone, Copy)]
+pub struct Frame<'a, 's, C> {
+    pub scene: &'a Scene<'s>,
+    pub camera: &'a C,
+    pub materials: &'a [Material],
+    /// As for [`render_rows`]: every emitting primitive, see [`emitters`].
+    pub lights: &'a [u32],
+    pub settings: &'a Settings,
+}
+
+/// The running sum and sum of squares (per channel) of a pixel's sample radiances, and the rays
+/// traced for them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SampleSums {
+    pub sum: Vec3,
+    pub sum_sq: Vec3,
+    /// Rays traced for these samples: camera, bounce and shadow rays.
+    pub rays: u64,
+}
+
+impl<C: Camera> Frame<'_, '_, C> {
+    /// Adds samples `samples` of pixel `(x, y)` to `sums`, one after the other in sample order.
+    /// Sample `i` of a pixel is the same whichever call renders it, and the sums are added to
+    /// in the same order, so `0..a` then `a..b` give exactly, bit for bit, the sums of `0..b`;
+    /// [`render_rows`] writes `sum / spp` of `0..spp`. Ranges that start at a multiple of 8 fill
+    /// the 8-wide packets best.
+    ///
+    /// # Errors
+    /// [`RenderError::EmptyImage`] for a zero width or height, [`RenderError::BufferSize`] for a
+    /// pixel outside the image.
+    pub fn add_samples(
+        &self,
+        x: u32,
+        y: u32,
+        samples: Range<u32>,
+        sums: &mut SampleSums,
+    ) -> Result<(), RenderError> {
+        let s = self.settings;
+        if s.width == 0 || s.height == 0 {
+            return Err(RenderError::EmptyImage);
+        }
+        if x >= s.width || y >= s.height {
+            return Err(RenderError::BufferSize);
+        }
+        let ctx = Context {
+            scene: self.scene,
+            materials: self.materials,
+            lights: self.lights,
+            settings: s,
+        };
+        let (cam, s) = (self.camera, samples);
+        match self.scene.contents() & (contents::TRIANGLES | contents::SPHERES) {
+            contents::TRIANGLES => render_pixel::<Triangles, C>(&ctx, cam, x, y, s, sums),
+            contents::SPHERES => render_pixel::<Spheres, C>(&ctx, cam, x, y, s, sums),
+            _ => render_pixel::<Mixed, C>(&ctx, cam, x, y, s, sums),
+        }
+        Ok(())
+    }
 }
 
 /// What every path of a render reads.
@@ -229,14 +294,20 @@ pub fn emitters(scene: &Scene, materials: &[Material], out: &mut [u32]) -> usize
     n
 }
 
-/// The sum of pixel `(x, y)`'s sample radiances.
-fn render_pixel<K: Contents, C: Camera>(ctx: &Context, camera: &C, x: u32, y: u32) -> Vec3 {
+/// Adds pixel `(x, y)`'s sample radiances over `samples` to `sums`, in sample order.
+fn render_pixel<K: Contents, C: Camera>(
+    ctx: &Context,
+    camera: &C,
+    x: u32,
+    y: u32,
+    samples: Range<u32>,
+    sums: &mut SampleSums,
+) {
     let settings = ctx.settings;
     let pixel = u64::from(y) * u64::from(settings.width) + u64::from(x);
-    let mut sum = Vec3::ZERO;
-    let mut first = 0;
-    while first < settings.spp {
-        let n = (settings.spp - first).min(8) as usize;
+    let mut first = samples.start;
+    while first < samples.end {
+        let n = (samples.end - first).min(8) as usize;
         let mut paths = [Path::new(Ray::new(Vec3::ZERO, Vec3::Z), Pcg32::new(0, 0)); 8];
         for (i, path) in paths.iter_mut().enumerate().take(n) {
             let mut rng = Pcg32::new(settings.seed, pixel << 32 | u64::from(first + i as u32));
@@ -257,12 +328,13 @@ fn render_pixel<K: Contents, C: Camera>(ctx: &Context, camera: &C, x: u32, y: u3
         for path in paths.iter() {
             // A non-finite sample (a NaN from a degenerate normal, say) is dropped, not spread.
             if path.radiance.is_finite() {
-                sum += path.radiance;
+                sums.sum += path.radiance;
+                sums.sum_sq += path.radiance * path.radiance;
             }
+            sums.rays += u64::from(path.rays);
         }
         first += n as u32;
     }
-    sum
 }
 
 /// One sample's path: the ray it follows next, its random numbers and what it has gathered.
@@ -274,6 +346,8 @@ struct Path {
     throughput: Vec3,
     /// Whether emission where `ray` lands counts (camera rays, specular bounces, no lights).
     count_emission: bool,
+    /// Rays traced so far, shadow rays included.
+    rays: u32,
 }
 
 /// A shadow ray that a path vertex waits on: if nothing blocks `ray`, the path gains
@@ -293,6 +367,7 @@ impl Path {
             radiance: Vec3::ZERO,
             throughput: Vec3::ONE,
             count_emission: true,
+            rays: 0,
         }
     }
 
@@ -300,6 +375,7 @@ impl Path {
     fn resolve(&mut self, shadow: &Shadow, occluded: bool) {
         let light = if occluded { Vec3::ZERO } else { shadow.light };
         self.radiance += shadow.factor * light;
+        self.rays += 1;
     }
 }
 
@@ -377,6 +453,7 @@ fn packet(rays: &[Ray; 8], mask: u32) -> RayPacket<f32x8> {
 fn vertex(ctx: &Context, path: &mut Path, hit: &Hit) -> (bool, Option<Shadow>) {
     let scene = ctx.scene;
     let ray = path.ray;
+    path.rays += 1;
     if !hit.is_hit() {
         path.radiance += path.throughput * ctx.settings.background;
         return (false, None);

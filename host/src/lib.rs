@@ -13,4 +13,6 @@ pub use geometry::Geometry;
 pub mod build;
 pub mod description;
 pub mod flat;
+pub mod image;
+pub mod progressive;
 pub mod rays;

@@ -20,8 +20,16 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Path-trace a scene (.toml; without one, the built-in default scene) into a PNG
+    /// Path-trace a scene (.toml; without one, the built-in default scene) into a PNG or EXR
     Render(commands::RenderArgs),
+    /// Assemble the row bands written by `render --tile K/N` into one image (.png or .exr).
+    Merge {
+        /// The bands (.exr), in any order; together they must cover every row exactly once.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        #[arg(short, long)]
+        out: PathBuf,
+    },
     /// Build a kd-tree from a mesh (.ply, .ply.gz, .obj, .tri) or a scene (.toml) into a .kdt file.
     Build {
         input: PathBuf,
@@ -59,6 +67,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => commands::render(&args),
+        Command::Merge { parts, out } => commands::merge(&parts, &out),
         Command::Build {
             input,
             out,

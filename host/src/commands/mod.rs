@@ -1,12 +1,17 @@
 //! The subcommands behind `main`.
 
 mod build;
+mod merge;
 mod render;
 mod trace;
 
 pub use build::{BuildArgs, build, info};
+pub use merge::merge;
 pub use render::{RenderArgs, render};
-pub use trace::{RayKind, TraceArgs, parse_size, rays, trace};
+pub use trace::{RayKind, TraceArgs, rays, trace};
+
+use kdray::error::{Error, Result};
+use std::path::Path;
 
 /// Runs `work` on its own thread while this one updates `bar` from `position()` every 20 ms,
 /// once the work has taken more than half a second (short jobs show no bar); clears the bar and
@@ -30,4 +35,44 @@ fn with_progress<T: Send>(
     });
     bar.finish_and_clear();
     result
+}
+
+/// The most pixels an image (or a `kdray rays` set: 2²⁶ rays, 2 GiB) may have.
+pub(crate) const MAX_PIXELS: u64 = 1 << 26;
+
+/// Parses `WxH`.
+pub fn parse_size(s: &str) -> core::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH, got '{s}'"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| (1..=65536).contains(&n))
+    };
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) if u64::from(w) * u64::from(h) <= MAX_PIXELS => Ok((w, h)),
+        (Some(w), Some(h)) => Err(format!(
+            "{w}x{h} is {} pixels; at most {MAX_PIXELS} (a {} MiB ray file) are written",
+            u64::from(w) * u64::from(h),
+            (MAX_PIXELS * 32) >> 20
+        )),
+        _ => Err(format!(
+            "sizes must be whole numbers from 1 to 65536, got '{s}'"
+        )),
+    }
+}
+
+/// A thread pool of `threads` workers (default: all cores); `path` names the input in errors.
+pub(crate) fn pool(path: &Path, threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(Error::new(path, "--threads must be at least 1"));
+        }
+        b = b.num_threads(n);
+    }
+    b.build()
+        .map_err(|e| Error::new(path, format!("cannot start threads: {e}")))
 }

@@ -1,39 +1,51 @@
 //! `kdray render`: builds a scene's tree, path-traces it with the core's render kernel on all
-//! cores, and writes an 8-bit sRGB PNG.
+//! cores in passes (kdray::progressive) until a sample count, a time or a noise level is reached,
+//! and writes an 8-bit sRGB PNG or a linear EXR (the whole image, or one band of rows with
+//! `--tile K/N`), then prints one summary line.
 
 use super::build::build_words;
-use super::trace::{parse_size, pool};
 use super::with_progress;
+use super::{MAX_PIXELS, parse_size, pool};
+use core::ops::Range;
 use core::sync::atomic::{AtomicU64, Ordering};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use kdray::build::BuildParams;
 use kdray::error::{Error, Result};
-use kdray::scene::{SceneFile, load_scene};
+use kdray::image::{self, Band, Format};
+use kdray::progressive::{self, Plan, Stats, Stop};
+use kdray::scene::{SceneCamera, SceneFile, load_scene};
 use kdray_core::Scene;
-use kdray_core::color::srgb8;
-use kdray_core::render::{self, Bounces, Material, Settings};
+use kdray_core::render::{self, Bounces, Frame, Material, Settings};
 use kdray_core::words::Fnv1a;
-use rayon::prelude::*;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
-/// The most pixels an image may have (as for `kdray rays`).
-const MAX_PIXELS: u64 = 1 << 26;
 /// The most samples per pixel and surface hits per path a render accepts.
-const MAX_SPP: u32 = 1 << 20;
+pub(crate) const MAX_SPP: u32 = 1 << 20;
 const MAX_DEPTH: u32 = 1024;
 
 #[derive(clap::Args)]
 pub struct RenderArgs {
     /// A scene file (.toml, see docs/SCENE.md); without one, the built-in default scene.
     pub scene: Option<PathBuf>,
-    /// The image to write (PNG, 8-bit sRGB).
+    /// The image to write: .png (8-bit sRGB) or .exr (linear f32 RGB).
     #[arg(short, long, default_value = "render.png")]
     pub out: PathBuf,
-    /// Samples per pixel (default: the scene's `[render] spp`).
+    /// Samples per pixel (default: the scene's `[render] spp`, unless --seconds or --noise is
+    /// given; with them, a cap).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_SPP)))]
     pub spp: Option<u32>,
+    /// Render passes of 8 samples per pixel until this many seconds are spent.
+    #[arg(long, value_parser = parse_positive)]
+    pub seconds: Option<f64>,
+    /// Render passes until the estimated relative RMSE of the image (from the per-pixel sample
+    /// variance) is below this, e.g. 0.01.
+    #[arg(long, value_parser = parse_positive)]
+    pub noise: Option<f64>,
+    /// Spend each pass's samples where the per-pixel variance is highest (after two uniform
+    /// passes) instead of evenly.
+    #[arg(long)]
+    pub adaptive: bool,
     /// Image size WxH (default: the scene's `[render] width, height`).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
@@ -48,6 +60,10 @@ pub struct RenderArgs {
     /// 8-wide packets) or `single` (each ray through the scalar walk). Same image either way.
     #[arg(long, value_enum, default_value_t = BouncesArg::Packets)]
     pub bounces: BouncesArg,
+    /// Render only the K-th of N bands of rows (K from 1), written as .exr; `kdray merge`
+    /// assembles the bands. With --spp, its pixels are those of the whole render.
+    #[arg(long, value_name = "K/N", value_parser = parse_tile)]
+    pub tile: Option<(u32, u32)>,
     /// Also print `checksum=` of the image's linear pixels (FNV-1a of their f32 bits, the
     /// checksum the firmware in targets/cortex-m4f prints) (extension of the contract).
     #[arg(long)]
@@ -61,83 +77,201 @@ pub enum BouncesArg {
     Single,
 }
 
+/// Parses a finite number greater than 0.
+fn parse_positive(s: &str) -> core::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("expected a number greater than 0, got '{s}'")),
+    }
+}
+
+/// Parses `K/N` with `1 ≤ K ≤ N`.
+fn parse_tile(s: &str) -> core::result::Result<(u32, u32), String> {
+    let parsed = s
+        .split_once('/')
+        .and_then(|(k, n)| Some((k.trim().parse::<u32>().ok()?, n.trim().parse::<u32>().ok()?)));
+    match parsed {
+        Some((k, n)) if (1..=n).contains(&k) => Ok((k, n)),
+        _ => Err(format!("expected K/N with 1 <= K <= N, got '{s}'")),
+    }
+}
+
+/// Band `k` (from 1) of `n` of an image `height` rows tall: rows `⌊(k−1)h/n⌋..⌊kh/n⌋`.
+pub fn tile_rows(k: u32, n: u32, height: u32) -> Range<u32> {
+    let edge = |i: u32| (u64::from(i) * u64::from(height) / u64::from(n)) as u32;
+    edge(k - 1)..edge(k)
+}
+
+/// A scene loaded, built and ready to render: what `render` and `converge` share.
+pub(crate) struct Prepared {
+    pub file: SceneFile,
+    pub words: Vec<u32>,
+    pub build_ms: f64,
+    pub camera: SceneCamera,
+    pub materials: Vec<Material>,
+    pub lights: Vec<u32>,
+}
+
+impl Prepared {
+    /// Loads `scene` (or the default scene), builds its tree and finds its lights.
+    pub fn load(scene: Option<&Path>) -> Result<Self> {
+        let file = match scene {
+            Some(path) => load_scene(path)?,
+            None => SceneFile::default_scene(),
+        };
+        Self::from_file(file)
+    }
+
+    /// Builds `file`'s tree and finds its lights.
+    pub fn from_file(file: SceneFile) -> Result<Self> {
+        let camera = file.camera()?;
+        let geom = file.geometry()?;
+        let (words, build_ms) = build_words(&file.path, &geom, &BuildParams::default())?;
+        let materials: Vec<Material> = file.materials.iter().map(|m| m.to_core()).collect();
+        let scene = Scene::from_words(&words).map_err(|e| Error::new(&file.path, e.to_string()))?;
+        let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
+        render::emitters(&scene, &materials, &mut lights);
+        Ok(Self {
+            file,
+            words,
+            build_ms,
+            camera,
+            materials,
+            lights,
+        })
+    }
+
+    pub fn scene(&self) -> Result<Scene<'_>> {
+        Scene::from_words(&self.words).map_err(|e| Error::new(&self.file.path, e.to_string()))
+    }
+
+    /// Renders `plan` with `settings` on `pool`, with a progress bar.
+    pub fn render(
+        &self,
+        settings: &Settings,
+        plan: &Plan,
+        pool: &rayon::ThreadPool,
+    ) -> Result<(progressive::Film, Stats)> {
+        let scene = self.scene()?;
+        let frame = Frame {
+            scene: &scene,
+            camera: &self.camera,
+            materials: &self.materials,
+            lights: &self.lights,
+            settings,
+        };
+        let done = AtomicU64::new(0);
+        let pixels = u64::from(settings.width) * plan.rows.len() as u64;
+        let bar = match (plan.stop.seconds, plan.stop.noise) {
+            (None, None) => ProgressBar::new(pixels * u64::from(plan.stop.spp)),
+            _ => ProgressBar::no_length(),
+        };
+        bar.set_message(format!("rendering {}", self.file.path.display()));
+        let template = if bar.length().is_some() {
+            "{msg} [{bar:30}] {percent}% {elapsed} (eta {eta})"
+        } else {
+            "{msg} {spinner} {pos} samples {elapsed}"
+        };
+        bar.set_style(ProgressStyle::with_template(template).expect("valid template"));
+        let result = with_progress(
+            &bar,
+            || done.load(Ordering::Relaxed),
+            || pool.install(|| progressive::render(&frame, plan, &done)),
+        );
+        result.map_err(|e| Error::new(&self.file.path, e.to_string()))
+    }
+}
+
 pub fn render(args: &RenderArgs) -> Result<()> {
-    let is_png = args
-        .out
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    if !is_png {
+    let format = Format::of(&args.out)?;
+    if args.tile.is_some() && format != Format::Exr {
         return Err(Error::new(
             &args.out,
-            "the output image must be a .png file",
+            "--tile writes a band of rows, which needs an .exr output",
         ));
     }
-    let file = match &args.scene {
-        Some(path) => load_scene(path)?,
-        None => SceneFile::default_scene(),
-    };
-    let settings = settings(&file, args)?;
-    let camera = file.camera()?;
-    let geom = file.geometry()?;
-    let (words, build_ms) = build_words(&file.path, &geom, &BuildParams::default())?;
-    let scene = Scene::from_words(&words).map_err(|e| Error::new(&file.path, e.to_string()))?;
-    let materials: Vec<Material> = file.materials.iter().map(|m| m.to_core()).collect();
-    let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
-    render::emitters(&scene, &materials, &mut lights);
-
+    image::check_writable(&args.out)?;
+    let prepared = Prepared::load(args.scene.as_deref())?;
+    let file = &prepared.file;
+    let settings = settings(file, args)?;
     let pool = pool(&file.path, args.threads)?;
-    let (w, h) = (settings.width as usize, settings.height as usize);
-    let mut pixels = vec![[0.0f32; 3]; w * h];
-    let rows_done = AtomicU64::new(0);
-    let bar = ProgressBar::new(h as u64).with_message(format!("rendering {}", file.path.display()));
-    bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} rows {elapsed} (eta {eta})")
-            .expect("valid template"),
-    );
-    let start = Instant::now();
-    let result = with_progress(
-        &bar,
-        || rows_done.load(Ordering::Relaxed),
-        || {
-            pool.install(|| {
-                pixels
-                    .par_chunks_mut(w)
-                    .enumerate()
-                    .try_for_each(|(row, out)| {
-                        let r = render::render_rows(
-                            &scene, &camera, &materials, &lights, &settings, row as u32, out,
-                        );
-                        rows_done.fetch_add(1, Ordering::Relaxed);
-                        r
-                    })
-            })
+    let rows = match args.tile {
+        Some((k, n)) if n > settings.height => {
+            let msg = format!(
+                "--tile {k}/{n}: the image has only {} rows",
+                settings.height
+            );
+            return Err(Error::new(&file.path, msg));
+        }
+        Some((k, n)) => tile_rows(k, n, settings.height),
+        None => 0..settings.height,
+    };
+    let timed = args.seconds.is_some() || args.noise.is_some();
+    let plan = Plan {
+        rows,
+        stop: Stop {
+            spp: if timed {
+                args.spp.unwrap_or(MAX_SPP)
+            } else {
+                settings.spp
+            },
+            seconds: args.seconds,
+            noise: args.noise,
         },
-    );
-    result.map_err(|e| Error::new(&file.path, e.to_string()))?;
-    let render_ms = start.elapsed().as_secs_f64() * 1e3;
-
-    write_png(&args.out, &pixels, settings.width, settings.height)?;
+        adaptive: args.adaptive,
+    };
+    let (film, stats) = prepared.render(&settings, &plan, &pool)?;
+    let band = Band {
+        width: settings.width,
+        height: settings.height,
+        first_row: plan.rows.start,
+        pixels: film.mean(),
+    };
+    image::write(&args.out, &band)?;
+    let scene = prepared.scene()?;
     let checksum = match args.checksum {
         true => {
             let mut h = Fnv1a::default();
-            h.pixels(&pixels);
+            h.pixels(&band.pixels);
             format!(" checksum={:08x}", h.0)
         }
         false => String::new(),
     };
     println!(
-        "wrote {}: {}x{}, {} spp, max_depth {}, {} triangles, {} spheres, build_ms={build_ms:.1} \
-         render_ms={render_ms:.1} threads={}{checksum}",
+        "wrote {}: {}x{}{}, {} spp, {:.2} s, {:.2} Mrays/s, est. RMSE {:.4} (relative {:.4}), \
+         passes={} max_depth={} triangles={} spheres={} build_ms={:.1} threads={}{checksum}",
         args.out.display(),
         settings.width,
         settings.height,
-        settings.spp,
+        match args.tile {
+            Some((k, n)) => format!(
+                " rows {}..{} (tile {k}/{n})",
+                plan.rows.start, plan.rows.end
+            ),
+            None => String::new(),
+        },
+        spp_text(stats.mean_spp),
+        stats.seconds,
+        stats.rays as f64 / stats.seconds.max(1e-9) / 1e6,
+        stats.rmse,
+        stats.rel_rmse,
+        stats.passes,
         settings.max_depth,
         scene.tri_count(),
         scene.sphere_count(),
+        prepared.build_ms,
         pool.current_num_threads()
     );
     Ok(())
+}
+
+/// Samples per pixel as a whole number when it is one (uniform sampling), else to one decimal.
+fn spp_text(spp: f64) -> String {
+    if spp.fract() == 0.0 {
+        format!("{spp}")
+    } else {
+        format!("{spp:.1}")
+    }
 }
 
 /// The scene's `[render]` table with the command line's overrides, checked against the limits.
@@ -172,18 +306,4 @@ fn settings(file: &SceneFile, args: &RenderArgs) -> Result<Settings> {
             BouncesArg::Single => Bounces::SingleRays,
         },
     })
-}
-
-/// Writes linear RGB pixels as an 8-bit sRGB PNG.
-fn write_png(path: &Path, pixels: &[[f32; 3]], width: u32, height: u32) -> Result<()> {
-    let bytes: Vec<u8> = pixels.iter().flatten().map(|&c| srgb8(c)).collect();
-    let file = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width, height);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-    let png_error = |e: png::EncodingError| Error::new(path, format!("cannot write PNG: {e}"));
-    let mut writer = encoder.write_header().map_err(png_error)?;
-    writer.write_image_data(&bytes).map_err(png_error)?;
-    writer.finish().map_err(png_error)
 }

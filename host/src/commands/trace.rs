@@ -1,6 +1,7 @@
 //! `kdray trace` and `kdray rays`.
 
 use super::build::{BuildArgs, load_scene_words};
+use super::pool;
 use kdray::error::{Error, Result};
 use kdray::rays;
 use kdray_core::simd::{f32x4, f32x8};
@@ -46,18 +47,6 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], packet: u32) {
             8 => rays::trace_packets::<f32x8>(scene, r, h),
             _ => rays::trace_scalar(scene, r, h),
         });
-}
-
-pub(super) fn pool(path: &Path, threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    let mut b = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = threads {
-        if n == 0 {
-            return Err(Error::new(path, "--threads must be at least 1"));
-        }
-        b = b.num_threads(n);
-    }
-    b.build()
-        .map_err(|e| Error::new(path, format!("cannot start threads: {e}")))
 }
 
 pub fn trace(args: &TraceArgs) -> Result<()> {
@@ -110,33 +99,6 @@ pub fn parse_packet(s: &str) -> core::result::Result<u32, String> {
         "4" => Ok(4),
         "8" => Ok(8),
         _ => Err(format!("packet width must be 1, 4 or 8, got '{s}'")),
-    }
-}
-
-/// The largest ray set `kdray rays` writes: 2²⁶ rays, 2 GiB.
-const MAX_PIXELS: u64 = 1 << 26;
-
-/// Parses `WxH`.
-pub fn parse_size(s: &str) -> core::result::Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("expected WxH, got '{s}'"))?;
-    let parse = |v: &str| {
-        v.trim()
-            .parse::<u32>()
-            .ok()
-            .filter(|&n| (1..=65536).contains(&n))
-    };
-    match (parse(w), parse(h)) {
-        (Some(w), Some(h)) if u64::from(w) * u64::from(h) <= MAX_PIXELS => Ok((w, h)),
-        (Some(w), Some(h)) => Err(format!(
-            "{w}x{h} is {} pixels; at most {MAX_PIXELS} (a {} MiB ray file) are written",
-            u64::from(w) * u64::from(h),
-            (MAX_PIXELS * 32) >> 20
-        )),
-        _ => Err(format!(
-            "sizes must be whole numbers from 1 to 65536, got '{s}'"
-        )),
     }
 }
 
