@@ -1,25 +1,11 @@
 //! The `kdray` binary's contract: exit codes, messages that name the file, the `trace` line,
 //! and hits that agree with the library.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
-fn kdray(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_kdray"))
-        .args(args)
-        .output()
-        .expect("run kdray")
-}
-
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kdray-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{dir, kdray, s};
 
 fn tri_file(path: &Path, tris: &[[f32; 9]]) {
     let mut b = (tris.len() as u32).to_le_bytes().to_vec();

@@ -1,25 +1,10 @@
 //! `kdray render`'s stopping rules, EXR output, `--tile K/N` and `kdray merge`: exit codes,
 //! messages that name the file, and bands that merge into the whole render bit for bit.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn kdray(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_kdray"))
-        .args(args)
-        .output()
-        .expect("run kdray")
-}
-
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kdray-modes-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{dir, kdray, s};
 
 /// Runs kdray, asserts success, returns stdout.
 fn ok(args: &[&str]) -> String {
@@ -203,42 +188,23 @@ fn exr_output_holds_linear_radiance_above_one() {
 fn seconds_and_noise_stop_the_render_and_report_it() {
     let d = dir("stops");
     let out = d.join("t.png");
-    let line = ok(&["render", "-o", s(&out), "--size", "8x8", "--seconds", "0.2"]);
+    let run =
+        |extra: &[&str]| ok(&[&["render", "-o", s(&out), "--size", "8x8"][..], extra].concat());
+    let line = run(&["--seconds", "0.2"]);
     for key in ["8x8, ", " spp, ", " s, ", "Mrays/s", "est. RMSE", "passes="] {
         assert!(line.contains(key), "no '{key}' in {line}");
     }
     // A noise level every image meets stops after the first pass of 8 samples.
-    let line = ok(&["render", "-o", s(&out), "--size", "8x8", "--noise", "1000"]);
-    assert!(
-        line.contains("8x8, 8 spp") && line.contains("passes=1 "),
-        "{line}"
-    );
+    let line = run(&["--noise", "1000"]);
+    let stopped = |spp: &str, passes: &str| line.contains(spp) && line.contains(passes);
+    assert!(stopped("8x8, 8 spp", "passes=1 "), "{line}");
     // --spp caps a noise target that is never met.
-    let line = ok(&[
-        "render",
-        "-o",
-        s(&out),
-        "--size",
-        "8x8",
-        "--noise",
-        "1e-9",
-        "--spp",
-        "24",
-    ]);
+    let line = run(&["--noise", "1e-9", "--spp", "24"]);
     assert!(
         line.contains("8x8, 24 spp") && line.contains("passes=3 "),
         "{line}"
     );
-    let line = ok(&[
-        "render",
-        "-o",
-        s(&out),
-        "--size",
-        "8x8",
-        "--spp",
-        "40",
-        "--adaptive",
-    ]);
+    let line = run(&["--spp", "40", "--adaptive"]);
     let spp: f64 = line
         .split(", ")
         .find_map(|f| f.strip_suffix(" spp")?.parse().ok())
