@@ -3,7 +3,8 @@
 //! `kdray-core` as a `no_std` WebAssembly module without an allocator: a page (or Node) asks for
 //! regions of linear memory with [`kd_alloc`], writes a scene's words (`.kdt`) and its render
 //! description (`.kdr`) into them, [`kd_load`]s them, then renders rows ([`kd_render`],
-//! [`kd_to_rgba`]) or traces a ray buffer ([`kd_trace`]). Every export returns a status (0 or a
+//! [`kd_to_rgba`]; progressively, one sample a call, with `page::kd_accumulate`) or traces a ray
+//! buffer ([`kd_trace`]). Every export returns a status (0 or a
 //! positive count = success, negative = [`Status`]) and never traps on bad input; [`kd_error`]
 //! gives the last error's text. See `README.md` for the JavaScript side.
 //!
@@ -23,6 +24,8 @@ use kdray_core::description::{AnyCamera, Description};
 use kdray_core::render::{self, Bounces};
 use kdray_core::simd::{RayPacket, f32x4, f32x8};
 use kdray_core::{Hit, Ray, Scene, color};
+
+mod page;
 
 /// What an export returns when it fails (as a negative `i32`).
 #[repr(i32)]
