@@ -39,7 +39,8 @@ impl Workload {
         let build_ms = start.elapsed().as_secs_f64() * 1e3;
         let words = serialize(&tree, &geom, build_ms as f32)?;
         let scene = Scene::from_words(&words).map_err(|e| e.to_string())?;
-        let primary = primary_rays(&framing_camera(scene.bounds()), width, height);
+        let camera = framing_camera(scene.bounds()).ok_or("scene too large to frame")?;
+        let primary = primary_rays(&camera, width, height);
         let mut hits = vec![Hit::MISS; primary.len()];
         trace_packets::<f32x8>(&scene, &primary, &mut hits);
         let diffuse = diffuse_rays(&scene, &primary, &hits, 1);

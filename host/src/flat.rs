@@ -259,15 +259,15 @@ fn flatten(
     }
 }
 
-/// Writes words as a little-endian `.kdt` file.
+/// Writes words as a little-endian `.kdt` file, whole or not at all ([`crate::files::write_atomic`]).
 pub fn write_kdt(path: &Path, words: &[u32]) -> Result<()> {
     let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-    std::fs::write(path, bytes).map_err(|e| Error::io(path, e))
+    crate::files::write_atomic(path, &bytes)
 }
 
-/// Reads a `.kdt` file into words and validates it.
+/// Reads a `.kdt` file (a regular file) into words and validates it.
 pub fn read_kdt(path: &Path) -> Result<Vec<u32>> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::files::read(path)?;
     if !bytes.len().is_multiple_of(4) {
         return Err(Error::new(
             path,

@@ -35,27 +35,6 @@ impl Format {
     }
 }
 
-/// Checks, before any work, that `path` can be written: its folder exists and is a folder, and
-/// `path` is not a folder. (A file that exists is overwritten.)
-///
-/// # Errors
-/// The reason, naming the file.
-pub fn check_writable(path: &Path) -> Result<()> {
-    if path.is_dir() {
-        return Err(Error::new(path, "is a directory, not an output file"));
-    }
-    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
-    if let Some(dir) = parent
-        && !dir.is_dir()
-    {
-        return Err(Error::new(
-            path,
-            format!("cannot write here: {} is not a directory", dir.display()),
-        ));
-    }
-    Ok(())
-}
-
 /// Rows `rows` of a `width × height` linear RGB image, row-major.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Band {
@@ -100,17 +79,18 @@ fn write_png(path: &Path, pixels: &[[f32; 3]], width: u32, height: u32) -> Resul
 
 /// Writes 8-bit RGB bytes as a PNG (tagged sRGB if `srgb`).
 pub fn write_png_bytes(path: &Path, rgb: &[u8], width: u32, height: u32, srgb: bool) -> Result<()> {
-    let file = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width, height);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    if srgb {
-        encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-    }
-    let png_error = |e: png::EncodingError| Error::new(path, format!("cannot write PNG: {e}"));
-    let mut writer = encoder.write_header().map_err(png_error)?;
-    writer.write_image_data(rgb).map_err(png_error)?;
-    writer.finish().map_err(png_error)
+    crate::files::write_atomic_with(path, |out| {
+        let mut encoder = png::Encoder::new(out, width, height);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        if srgb {
+            encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        }
+        let mut writer = encoder.write_header()?;
+        writer.write_image_data(rgb)?;
+        writer.finish()?;
+        Ok(())
+    })
 }
 
 /// Writes `band` as a linear f32 RGB EXR (lossless ZIP), its rows placed in the whole image.
@@ -131,10 +111,12 @@ fn write_exr(path: &Path, band: &Band) -> Result<()> {
     let mut image = Image::from_layer(layer);
     image.attributes.display_window =
         IntegerBounds::new((0, 0), (band.width as usize, band.height as usize));
-    image
-        .write()
-        .to_file(path)
-        .map_err(|e| Error::new(path, format!("cannot write EXR: {e}")))
+    crate::files::write_atomic_with(path, |out| {
+        image
+            .write()
+            .to_buffered(out)
+            .map_err(|e| std::io::Error::other(format!("cannot write EXR: {e}")))
+    })
 }
 
 /// Reads an EXR's first RGB(A) layer as a band of the image its display window describes.

@@ -4,6 +4,7 @@
 //! flat word array that `kdray-core` traverses, and drives the `kdray` command line.
 
 pub mod error;
+pub mod files;
 pub mod geometry;
 pub mod load;
 pub mod scene;

@@ -16,11 +16,17 @@ pub const RAY_BYTES: usize = 32;
 /// Bytes per hit record.
 pub const HIT_BYTES: usize = 16;
 
+/// The most a finite ray's direction length may differ from 1 (DESIGN.md: directions are
+/// normalized). The kernels' parallel test compares `det²` with a threshold made for unit
+/// directions, so a direction much shorter than 1 (about 2e-7) would miss a triangle straight
+/// ahead; 1e-3 leaves room for any writer's rounding and moves that threshold by 0.2 % at most.
+pub const DIR_LENGTH_TOLERANCE: f32 = 1e-3;
+
 /// Decodes a rays file.
 ///
 /// # Errors
 /// A length that is not a whole number of records. Non-finite values are kept: traversal reports
-/// such rays as misses.
+/// such rays as misses (see [`check_normalized`] for finite ones).
 pub fn decode_rays(path: &Path, bytes: &[u8]) -> Result<Vec<Ray>> {
     if !bytes.len().is_multiple_of(RAY_BYTES) {
         return Err(Error::new(
@@ -46,10 +52,37 @@ pub fn decode_rays(path: &Path, bytes: &[u8]) -> Result<Vec<Ray>> {
         .collect())
 }
 
-/// Reads a rays file.
+/// Reads a rays file (a regular file).
 pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::files::read(path)?;
     decode_rays(path, &bytes)
+}
+
+/// Refuses the first ray whose eight values are all finite but whose direction's length is not
+/// within [`DIR_LENGTH_TOLERANCE`] of 1. Rays with a NaN or infinite value pass: they are misses
+/// by the core's rule.
+///
+/// # Errors
+/// The ray's index, its direction and that direction's length, naming `path`.
+pub fn check_normalized(path: &Path, rays: &[Ray]) -> Result<()> {
+    let finite = |r: &Ray| {
+        r.origin.is_finite() && r.dir.is_finite() && r.tmin.is_finite() && !r.tmax.is_nan()
+    };
+    let bad = rays.iter().position(|r| {
+        finite(r) && (r.dir.as_dvec3().length() - 1.0).abs() > f64::from(DIR_LENGTH_TOLERANCE)
+    });
+    match bad {
+        None => Ok(()),
+        Some(i) => {
+            let d = rays[i].dir;
+            let msg = format!(
+                "ray {i}: direction {d} has length {:e}; directions must be normalized \
+                 (length 1 ± {DIR_LENGTH_TOLERANCE:e})",
+                d.as_dvec3().length()
+            );
+            Err(Error::new(path, msg))
+        }
+    }
 }
 
 /// Encodes rays.
@@ -103,14 +136,20 @@ pub fn decode_hits(path: &Path, bytes: &[u8]) -> Result<Vec<Hit>> {
 }
 
 /// The benchmark protocol's camera: a pinhole looking along −z at the centre of `bounds`, far
-/// enough that the bounding sphere fills a 45° vertical field of view.
-pub fn framing_camera(bounds: [Vec3; 2]) -> Pinhole {
-    let center = 0.5 * (bounds[0] + bounds[1]);
-    let radius = (0.5 * (bounds[1] - bounds[0]).length()).max(1e-3);
+/// enough that the bounding sphere fills a 45° vertical field of view. `None` when that camera's
+/// position overflows f32 (a scene with coordinates near 1e19 and beyond) or the core refuses it.
+pub fn framing_camera(bounds: [Vec3; 2]) -> Option<Pinhole> {
+    let (lo, hi) = (bounds[0].as_dvec3(), bounds[1].as_dvec3());
+    let center = 0.5 * (lo + hi);
+    let radius = (0.5 * (hi - lo).length()).max(1e-3);
     let vfov = 45.0f32;
-    let dist = radius / (0.5 * vfov.to_radians()).sin();
-    let eye = center + Vec3::new(0.0, 0.0, dist);
-    Pinhole::look_at(eye, center, Vec3::Y, vfov).expect("finite, non-degenerate framing")
+    let dist = radius / (0.5 * f64::from(vfov).to_radians()).sin();
+    let eye = (center + glam::DVec3::new(0.0, 0.0, dist)).as_vec3();
+    let center = center.as_vec3();
+    if !(eye.is_finite() && center.is_finite()) {
+        return None;
+    }
+    Pinhole::look_at(eye, center, Vec3::Y, vfov).ok()
 }
 
 /// Width and height of the protocol's pixel tiles: 8 consecutive rays are one 2×4 (W×H) tile.

@@ -261,7 +261,7 @@ pub const DEFAULT_SCENE_TOML: &str = include_str!("../scenes/default.toml");
 /// # Errors
 /// An I/O failure, a TOML or schema error (with its line), or a failed check.
 pub fn load_scene(path: &Path) -> Result<SceneFile> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::files::read_text(path)?;
     SceneFile::from_toml_str(&text, path)
 }
 

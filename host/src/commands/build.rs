@@ -5,7 +5,7 @@ use core::sync::atomic::{AtomicU64, Ordering};
 use indicatif::{ProgressBar, ProgressStyle};
 use kdray::build::{BuildParams, PROGRESS_TOTAL};
 use kdray::error::{Error, Result};
-use kdray::{Geometry, flat, load};
+use kdray::{Geometry, files, flat, load};
 use kdray_core::Scene;
 use kdray_core::format::contents;
 use std::path::Path;
@@ -14,14 +14,14 @@ use std::time::Instant;
 /// Builder settings shared by `build` and `trace`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct BuildArgs {
-    /// SAH cost of one primitive test, relative to one traversal step.
-    #[arg(long, default_value_t = BuildParams::default().intersect_cost)]
+    /// SAH cost of one primitive test, relative to one traversal step (finite, > 0).
+    #[arg(long, default_value_t = BuildParams::default().intersect_cost, value_parser = parse_cost)]
     pub isect_cost: f64,
-    /// SAH cost of one traversal step.
-    #[arg(long, default_value_t = BuildParams::default().traversal_cost)]
+    /// SAH cost of one traversal step (finite, > 0).
+    #[arg(long, default_value_t = BuildParams::default().traversal_cost, value_parser = parse_cost)]
     pub trav_cost: f64,
-    /// Fraction of the cost saved by cutting off empty space.
-    #[arg(long, default_value_t = BuildParams::default().empty_bonus)]
+    /// Fraction of the cost saved by cutting off empty space, in [0, 1).
+    #[arg(long, default_value_t = BuildParams::default().empty_bonus, value_parser = parse_bonus)]
     pub empty_bonus: f64,
     /// Maximum tree depth (default 8 + 1.3·log2 N).
     #[arg(long)]
@@ -61,8 +61,29 @@ impl BuildArgs {
 /// what `kdray render SCENE.toml` does.
 pub const DESCRIPTION_SEED: u64 = 1;
 
-/// Builds `geom` with a progress bar; returns the words and the build time in ms.
+/// Parses an SAH cost: a finite number above 0 (a usage error otherwise).
+fn parse_cost(s: &str) -> core::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(c) if c.is_finite() && c > 0.0 => Ok(c),
+        _ => Err(format!("a cost must be a finite number above 0, got '{s}'")),
+    }
+}
+
+/// Parses the empty-space bonus: a fraction in [0, 1) (1 would make cutting empty space free, and
+/// the tree split until the depth limit).
+fn parse_bonus(s: &str) -> core::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(b) if (0.0..1.0).contains(&b) => Ok(b),
+        _ => Err(format!(
+            "the empty bonus must be a number in [0, 1), got '{s}'"
+        )),
+    }
+}
+
+/// Builds `geom` with a progress bar; returns the words and the build time in ms. Geometry the
+/// flat format cannot hold is refused first, naming `path` (the input).
 pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result<(Vec<u32>, f64)> {
+    load::check_buildable(path, geom)?;
     let progress = AtomicU64::new(0);
     let bar = ProgressBar::new(1000).with_message(format!("building {}", path.display()));
     bar.set_style(
@@ -82,6 +103,10 @@ pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result
     );
     let tree = tree.map_err(|e| Error::new(path, e))?;
     let words = flat::serialize(&tree, geom, build_ms as f32).map_err(|e| Error::new(path, e))?;
+    if let Err(e) = Scene::from_words(&words) {
+        let msg = format!("the built tree does not validate ({e}): please report this input");
+        return Err(Error::new(path, msg));
+    }
     Ok((words, build_ms))
 }
 
@@ -104,8 +129,12 @@ pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)
 
 /// `kdray build`: the tree into `out` and, for a scene file, its render description into
 /// `description` (what a firmware or WASM target needs besides the tree: camera, settings,
-/// materials, lights; `kdray_core::description`).
+/// materials, lights; `kdray_core::description`). Both outputs are checked before the work.
 pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildArgs) -> Result<()> {
+    files::check_output(out)?;
+    if let Some(path) = description {
+        files::check_output(path)?;
+    }
     let file = match description {
         Some(_) => Some(kdray::scene::load_scene(input)?),
         None => None,
@@ -115,6 +144,7 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
         None => load::load_input(input)?,
     };
     let (words, build_ms) = build_words(input, &geom, &args.params())?;
+    let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
     flat::write_kdt(out, &words)?;
     let desc = match (&file, description) {
         (Some(file), Some(path)) => {
@@ -124,7 +154,6 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
         }
         _ => None,
     };
-    let scene = Scene::from_words(&words).map_err(|e| Error::new(out, e.to_string()))?;
     println!(
         "wrote {}: {} triangles, {} spheres, {} nodes, {} bytes, build_ms={build_ms:.1}",
         out.display(),

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 /// Reads every part, checks that they tile the image exactly once, and writes the image.
 pub fn merge(parts: &[PathBuf], out: &Path) -> Result<()> {
     image::Format::of(out)?;
-    image::check_writable(out)?;
+    kdray::files::check_output(out)?;
     let bands = parts
         .iter()
         .map(|p| Ok((p.as_path(), image::read_exr(p)?)))

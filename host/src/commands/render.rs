@@ -5,7 +5,7 @@
 
 use super::build::build_words;
 use super::with_progress;
-use super::{MAX_PIXELS, parse_size, pool};
+use super::{MAX_PIXELS, parse_size, parse_threads, pool};
 use core::ops::Range;
 use core::sync::atomic::{AtomicU64, Ordering};
 use glam::Vec3;
@@ -49,8 +49,8 @@ pub struct RenderArgs {
     /// Image size WxH (default: the scene's `[render] width, height`).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads (default: all cores; at most 16 per core).
+    #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
     /// Seed of the samples' random numbers: the same seed gives the same image, whatever the
     /// thread count.
@@ -190,7 +190,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             "--tile writes a band of rows, which needs an .exr output",
         ));
     }
-    image::check_writable(&args.out)?;
+    kdray::files::check_output(&args.out)?;
     let prepared = Prepared::load(args.scene.as_deref())?;
     let file = &prepared.file;
     let settings = settings(file, args)?;

@@ -1,9 +1,9 @@
 //! `kdray trace` and `kdray rays`.
 
 use super::build::{BuildArgs, load_scene_words};
-use super::pool;
+use super::{parse_threads, pool};
 use kdray::error::{Error, Result};
-use kdray::rays;
+use kdray::{files, rays};
 use kdray_core::simd::{f32x4, f32x8};
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
@@ -24,8 +24,8 @@ pub struct TraceArgs {
     /// Rays per packet: 1 (single rays), or 4 or 8 consecutive rays traced together.
     #[arg(long, default_value_t = 1, value_parser = parse_packet)]
     pub packet: u32,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads (default: all cores; at most 16 per core).
+    #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
     /// Trace this many times and report the fastest.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
@@ -50,9 +50,11 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], packet: u32) {
 }
 
 pub fn trace(args: &TraceArgs) -> Result<()> {
+    files::check_output(&args.out)?;
+    let rays = rays::read_rays(&args.rays)?;
+    rays::check_normalized(&args.rays, &rays)?;
     let (words, build_ms) = load_scene_words(&args.input, &args.build)?;
     let scene = Scene::from_words(&words).map_err(|e| Error::new(&args.input, e.to_string()))?;
-    let rays = rays::read_rays(&args.rays)?;
     let pool = pool(&args.input, args.threads)?;
     let mut hits = vec![Hit::MISS; rays.len()];
     let mut best = f64::INFINITY;
@@ -65,7 +67,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         });
         best = best.min(start.elapsed().as_secs_f64());
     }
-    std::fs::write(&args.out, rays::encode_hits(&hits)).map_err(|e| Error::io(&args.out, e))?;
+    files::write_atomic(&args.out, &rays::encode_hits(&hits))?;
     let n_hits = hits.iter().filter(|h| h.is_hit()).count();
     let mrays = if best > 0.0 {
         rays.len() as f64 / best / 1e6
@@ -103,9 +105,17 @@ pub fn parse_packet(s: &str) -> core::result::Result<u32, String> {
 }
 
 pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64) -> Result<()> {
+    files::check_output(out)?;
     let (words, _) = load_scene_words(input, &BuildArgs::default())?;
     let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
-    let camera = rays::framing_camera(scene.bounds());
+    let [lo, hi] = scene.bounds();
+    let camera = rays::framing_camera(scene.bounds()).ok_or_else(|| {
+        let msg = format!(
+            "the scene's box [{lo}] .. [{hi}] is too large to frame with an f32 camera \
+             (coordinates up to about 1e18 can be framed)"
+        );
+        Error::new(input, msg)
+    })?;
     let primary = rays::primary_rays(&camera, size.0, size.1);
     let set = match kind {
         RayKind::Primary => primary,
@@ -115,7 +125,7 @@ pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64
             rays::diffuse_rays(&scene, &primary, &hits, seed)
         }
     };
-    std::fs::write(out, rays::encode_rays(&set)).map_err(|e| Error::io(out, e))?;
+    files::write_atomic(out, &rays::encode_rays(&set))?;
     println!("wrote {}: {} rays", out.display(), set.len());
     Ok(())
 }

@@ -14,6 +14,7 @@ mod obj;
 mod ply;
 mod tri;
 
+pub use ply::MAX_INFLATED;
 pub use tri::{decode_tri, encode_tri};
 
 use crate::error::{Error, Result};
@@ -58,17 +59,31 @@ impl MeshFormat {
 /// An unknown extension, an I/O failure, or any malformed content (see the module doc); the
 /// error names `path` and, for ASCII PLY and OBJ, the line where that is known.
 pub fn load_mesh(path: &Path) -> Result<Geometry> {
-    let geometry = match MeshFormat::from_path(path) {
-        Some(MeshFormat::Ply) => ply::load(path, false)?,
-        Some(MeshFormat::PlyGz) => ply::load(path, true)?,
-        Some(MeshFormat::Obj) => obj::load(path)?,
-        Some(MeshFormat::Tri) => tri::load(path)?,
-        None => {
-            return Err(Error::new(
-                path,
-                "unknown mesh format: expected a .ply, .ply.gz, .obj or .tri file",
-            ));
-        }
+    let Some(format) = MeshFormat::from_path(path) else {
+        return Err(Error::new(
+            path,
+            "unknown mesh format: expected a .ply, .ply.gz, .obj or .tri file",
+        ));
+    };
+    decode_mesh(format, path, &crate::files::read(path)?)
+}
+
+/// Decodes the bytes of a mesh file in `format`; `path` only names it in errors. What
+/// [`load_mesh`] does once it has read the file (the fuzz targets call it directly).
+///
+/// # Errors
+/// As [`load_mesh`], except for I/O.
+pub fn decode_mesh(format: MeshFormat, path: &Path, bytes: &[u8]) -> Result<Geometry> {
+    let geometry = match format {
+        MeshFormat::Ply => ply::decode(path, bytes, false)?,
+        MeshFormat::PlyGz => ply::decode(path, bytes, true)?,
+        MeshFormat::Obj => obj::decode(path, bytes)?,
+        MeshFormat::Tri => tri::decode_tri(bytes)
+            .map(|triangles| Geometry {
+                triangles,
+                ..Geometry::default()
+            })
+            .map_err(|msg| Error::new(path, msg))?,
     };
     check_geometry(path, &geometry)?;
     Ok(geometry)
@@ -98,6 +113,17 @@ pub(crate) fn check_geometry(path: &Path, g: &Geometry) -> Result<()> {
     if g.triangles.is_empty() {
         return Err(Error::new(path, "the mesh has no triangles"));
     }
+    check_buildable(path, g)
+}
+
+/// What the builder and the flat format need of any geometry, meshes and scenes alike, checked
+/// before a build so that the error names the input (not the output it would have been written
+/// to): finite vertices whose edges `v1 − v0`, `v2 − v0` are finite too (vertices ±3e38 apart
+/// overflow f32), spheres whose box `c ± r` is finite, attribute lists as long as the triangles.
+///
+/// # Errors
+/// The first primitive that breaks a rule, by index.
+pub fn check_buildable(path: &Path, g: &Geometry) -> Result<()> {
     if let Some(i) = g
         .triangles
         .iter()
@@ -107,6 +133,20 @@ pub(crate) fn check_geometry(path: &Path, g: &Geometry) -> Result<()> {
             path,
             format!("triangle {i} has a non-finite vertex"),
         ));
+    }
+    if let Some(i) = g
+        .triangles
+        .iter()
+        .position(|t| !((t[1] - t[0]).is_finite() && (t[2] - t[0]).is_finite()))
+    {
+        let msg = format!("triangle {i}: its edges overflow f32 (vertices too far apart)");
+        return Err(Error::new(path, msg));
+    }
+    if let Some(i) = g.spheres.iter().position(|&(c, r)| {
+        !((c - glam::Vec3::splat(r)).is_finite() && (c + glam::Vec3::splat(r)).is_finite())
+    }) {
+        let msg = format!("sphere {i}: centre ± radius overflows f32");
+        return Err(Error::new(path, msg));
     }
     let n = g.triangles.len();
     let same = |len: Option<usize>| len.is_none_or(|len| len == n);

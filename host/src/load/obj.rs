@@ -16,11 +16,10 @@ use core::fmt::Write as _;
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
-/// Reads, checks and loads the OBJ file at `path`.
-pub(super) fn load(path: &Path) -> Result<Geometry> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = core::str::from_utf8(&bytes).map_err(|e| {
-        let line = super::line_of_offset(&bytes, e.valid_up_to());
+/// Checks and loads OBJ bytes; `path` names the file in errors.
+pub(super) fn decode(path: &Path, bytes: &[u8]) -> Result<Geometry> {
+    let text = core::str::from_utf8(bytes).map_err(|e| {
+        let line = super::line_of_offset(bytes, e.valid_up_to());
         Error::at_line(path, line, "the file is not valid UTF-8 text")
     })?;
     let scan = prescan(text).map_err(|(line, msg)| Error::at_line(path, line, msg))?;

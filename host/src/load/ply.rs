@@ -3,7 +3,20 @@
 //! Read from the `vertex` element: `x y z` (any scalar type, usually float or double), optional
 //! normals `nx ny nz` and texture coordinates (`u v`, `s t` or `texture_u texture_v`). From the
 //! `face` element: `vertex_indices` or `vertex_index`, a list of any integer type. Other elements
-//! and properties are read past and ignored.
+//! and properties are read past and ignored (into a zero-sized record: they cost no memory).
+//!
+//! Strict where the parser is lenient, with the file and the line: the version must be `1.0`, an
+//! element or property may not be declared twice, an element with items must have properties, the
+//! payload must end exactly where the header's counts say (nothing but whitespace after an ASCII
+//! payload, nothing after a binary one: an undercounted element shows up here), an ASCII face's
+//! list count must fit its declared count type, and a `.ply.gz` must inflate whole — CRC and
+//! length trailer checked — to at most [`MAX_INFLATED`] bytes.
+//!
+//! Memory: before any payload is read, each element's count is checked against the bytes left
+//! after the header, at the fewest bytes one item can take (a face counted with its three
+//! indices, since fewer are refused), so a header claiming billions of items allocates nothing for
+//! them, and what is kept (64 bytes a vertex, 64 bytes plus its indices a face, nothing for
+//! other elements) stays within about 11 times the payload.
 //!
 //! Line numbers: the parser reports the line of its own errors; for ours (a bad index, a NaN) in
 //! an ASCII file the line of element `i` is computed from the header's length and the counts of
@@ -20,8 +33,15 @@ use ply_rs_bw::ply::{
     BeginList, ElementDef, Encoding, Header, Property, PropertyAccess, PropertyAccessResult,
     PropertyType, ScalarType,
 };
-use std::io::{BufRead, BufReader};
+use std::io::Read;
 use std::path::Path;
+
+/// The most bytes a `.ply.gz` may inflate to (512 MiB: a binary PLY of about 20 million
+/// triangles). Past it the file is refused, whatever its header says.
+pub const MAX_INFLATED: usize = 512 << 20;
+
+/// The longest header read (1 MiB).
+const MAX_HEADER: usize = 1 << 20;
 
 /// Slots of [`Elem::attrs`].
 const X: usize = 0;
@@ -159,6 +179,19 @@ impl PropertyAccess for Elem {
     }
 }
 
+/// Any element other than `vertex` and `face`: read past, nothing kept.
+struct Skip;
+
+impl PropertyAccess for Skip {
+    fn new() -> Self {
+        Self
+    }
+
+    fn set_property(&mut self, _: &str, _: Property) -> PropertyAccessResult {
+        PropertyAccessResult::Ignored
+    }
+}
+
 /// What the header says the file holds.
 struct Layout {
     ascii: bool,
@@ -169,31 +202,93 @@ struct Layout {
     face_offset: usize,
     normals: bool,
     uvs: bool,
+    /// The largest list count the face index list's count type holds.
+    max_face_len: u64,
 }
 
-/// Loads the PLY file at `path`, gunzipping it first when `gz`.
-pub(super) fn load(path: &Path, gz: bool) -> Result<Geometry> {
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+/// Decodes PLY bytes (gzip-compressed when `gz`); `path` names the file in errors.
+pub(super) fn decode(path: &Path, bytes: &[u8], gz: bool) -> Result<Geometry> {
     if gz {
-        parse(path, BufReader::new(MultiGzDecoder::new(file)))
+        parse(path, &inflate(path, bytes)?)
     } else {
-        parse(path, BufReader::new(file))
+        parse(path, bytes)
     }
 }
 
-fn parse<R: BufRead>(path: &Path, source: R) -> Result<Geometry> {
-    let parser = Parser::<Elem>::new();
-    let mut reader = Reader::new(source);
-    let header = parser
+/// Inflates a whole gzip file (every member; each member's CRC-32 and length trailer checked by
+/// `flate2`), refusing one that inflates past [`MAX_INFLATED`]. A first pass only counts (and
+/// checks) the inflated bytes, so a bomb is refused holding nothing, and an accepted file is
+/// inflated into a buffer of exactly its size.
+fn inflate(path: &Path, bytes: &[u8]) -> Result<Vec<u8>> {
+    let gz_error = |e: std::io::Error| Error::new(path, format!("invalid gzip data: {e}"));
+    let size = std::io::copy(
+        &mut MultiGzDecoder::new(bytes).take(MAX_INFLATED as u64 + 1),
+        &mut std::io::sink(),
+    )
+    .map_err(gz_error)?;
+    let mut out = Vec::with_capacity(size.min(MAX_INFLATED as u64) as usize);
+    if size <= MAX_INFLATED as u64 {
+        MultiGzDecoder::new(bytes)
+            .read_to_end(&mut out)
+            .map_err(gz_error)?;
+    }
+    if size > MAX_INFLATED as u64 {
+        let msg = format!(
+            "inflates to more than {} MiB, the limit for a .ply.gz (a decompression bomb?)",
+            MAX_INFLATED >> 20
+        );
+        return Err(Error::new(path, msg));
+    }
+    Ok(out)
+}
+
+fn parse(path: &Path, data: &[u8]) -> Result<Geometry> {
+    scan_header(path, data)?;
+    let mut reader = Reader::new(data);
+    let header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(|e| parse_error(path, &e, true))?;
-    let layout = check_header(path, &header, reader.line())?;
-    let mut payload = parser
-        .read_payload(&mut reader, &header)
-        .map_err(|e| parse_error(path, &e, layout.ascii))?;
-    let vertices = payload.swap_remove("vertex").unwrap_or_default();
-    let faces = payload.swap_remove("face").unwrap_or_default();
-    drop(payload);
+    let payload_bytes = reader.get_ref().len();
+    let layout = check_header(path, data, &header, reader.line(), payload_bytes)?;
+    let mut vertices = Vec::new();
+    let mut faces = Vec::new();
+    let payload_error = |e: ParseError| parse_error(path, &e, layout.ascii);
+    for (name, el) in &header.elements {
+        match name.as_str() {
+            "vertex" => {
+                vertices = Parser::<Elem>::new()
+                    .read_payload_for_element(&mut reader, el, &header)
+                    .map_err(payload_error)?;
+            }
+            "face" => {
+                faces = Parser::<Elem>::new()
+                    .read_payload_for_element(&mut reader, el, &header)
+                    .map_err(payload_error)?;
+            }
+            _ => {
+                Parser::<Skip>::new()
+                    .read_payload_for_element(&mut reader, el, &header)
+                    .map_err(payload_error)?;
+            }
+        }
+    }
+    let rest = reader.get_ref();
+    let trailing = if layout.ascii {
+        rest.iter().any(|b| !b.is_ascii_whitespace())
+    } else {
+        !rest.is_empty()
+    };
+    if trailing {
+        let msg = format!(
+            "{} bytes of data after the last element the header declares (does it undercount?)",
+            rest.len()
+        );
+        let at_end = data.len() - rest.len();
+        return Err(match layout.ascii {
+            true => Error::at_line(path, super::line_of_offset(data, at_end), msg),
+            false => Error::new(path, msg),
+        });
+    }
     let at = |offset: usize, i: usize, msg: String| match layout.ascii {
         true => Error::at_line(path, layout.first_data_line + offset + i, msg),
         false => Error::new(path, msg),
@@ -220,6 +315,13 @@ fn parse<R: BufRead>(path: &Path, source: R) -> Result<Geometry> {
     let mut corners = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         let n = face.indices.len();
+        if n as u64 > layout.max_face_len {
+            let msg = format!(
+                "face {f}: list count {n} does not fit the header's count type (at most {})",
+                layout.max_face_len
+            );
+            return Err(at(layout.face_offset, f, msg));
+        }
         if n < 3 {
             let msg = format!("face {f} has {n} vertices; a face needs at least 3");
             return Err(at(layout.face_offset, f, msg));
@@ -258,8 +360,84 @@ fn parse<R: BufRead>(path: &Path, source: R) -> Result<Geometry> {
     Ok(g)
 }
 
-/// Refuses headers without the properties we need, before any payload is read.
-fn check_header(path: &Path, header: &Header, line_after_header: usize) -> Result<Layout> {
+/// The header's text checks that `ply-rs-bw` does not make, with the line of each problem: the
+/// first line is `ply`, the version is `1.0`, no element or property is declared twice (the
+/// parser would keep only the last), and no element with items lacks properties (such items take
+/// no bytes, so a count of billions would be read, and kept, from nothing).
+fn scan_header(path: &Path, data: &[u8]) -> Result<()> {
+    if data.is_empty() {
+        return Err(Error::new(path, "invalid PLY: the file is empty"));
+    }
+    let mut elements: Vec<String> = Vec::new();
+    let mut properties: Vec<String> = Vec::new();
+    // The current element: its line and whether it has items.
+    let mut current: Option<(usize, bool)> = None;
+    let close = |current: Option<(usize, bool)>, n_props: usize| match current {
+        Some((line, true)) if n_props == 0 => Err(Error::at_line(
+            path,
+            line,
+            "invalid PLY: an element with items but no properties",
+        )),
+        _ => Ok(()),
+    };
+    let mut offset = 0;
+    for (i, raw) in data.split(|&b| b == b'\n').enumerate() {
+        let line = i + 1;
+        offset += raw.len() + 1;
+        if offset > MAX_HEADER {
+            let msg = format!("invalid PLY: no end_header in the first {MAX_HEADER} bytes");
+            return Err(Error::new(path, msg));
+        }
+        let text = String::from_utf8_lossy(raw);
+        let words: Vec<&str> = text.split_ascii_whitespace().collect();
+        let at = |msg: String| Error::at_line(path, line, format!("invalid PLY: {msg}"));
+        if line == 1 {
+            if words != ["ply"] {
+                return Err(at("the file does not start with a `ply` line".into()));
+            }
+            continue;
+        }
+        match words.as_slice() {
+            ["format", _, version] if *version != "1.0" => {
+                return Err(at(format!("format version {version}; only 1.0 is read")));
+            }
+            ["element", name, count, ..] => {
+                close(current, properties.len())?;
+                if elements.iter().any(|e| e == name) {
+                    return Err(at(format!("element `{name}` is declared twice")));
+                }
+                elements.push(name.to_string());
+                properties.clear();
+                current = Some((line, *count != "0"));
+            }
+            ["property", .., name] => {
+                if properties.iter().any(|p| p == name) {
+                    return Err(at(format!("property `{name}` is declared twice")));
+                }
+                properties.push(name.to_string());
+            }
+            ["end_header"] => return close(current, properties.len()),
+            _ => {}
+        }
+    }
+    Ok(()) // no end_header: the parser reports it
+}
+
+/// Refuses headers without the properties we need, or whose counts the payload cannot hold,
+/// before any payload is read. `payload_bytes` of `data` follow the header.
+fn check_header(
+    path: &Path,
+    data: &[u8],
+    header: &Header,
+    line_after_header: usize,
+    payload_bytes: usize,
+) -> Result<Layout> {
+    if (header.version.major, header.version.minor) != (1, 0) {
+        return Err(Error::new(path, "invalid PLY: only version 1.0 is read"));
+    }
+    let ascii = header.encoding == Encoding::Ascii;
+    // An ASCII file too short for its counts is reported at the line where it ends.
+    let last_line = super::line_of_offset(data, data.len());
     let mut offsets = (None, None);
     let mut offset = 0usize;
     for (name, el) in &header.elements {
@@ -269,6 +447,18 @@ fn check_header(path: &Path, header: &Header, line_after_header: usize) -> Resul
             _ => {}
         }
         offset = offset.saturating_add(el.count);
+        let need = el.count.checked_mul(min_item_bytes(el, ascii));
+        if need.is_none_or(|n| n > payload_bytes) {
+            let msg = format!(
+                "invalid PLY: element `{name}` declares {} items, more than the {payload_bytes} \
+                 bytes after the header can hold",
+                el.count
+            );
+            return Err(match ascii {
+                true => Error::at_line(path, last_line, msg),
+                false => Error::new(path, msg),
+            });
+        }
     }
     let (Some(vertex_offset), Some(face_offset)) = offsets else {
         return Err(Error::new(
@@ -289,8 +479,12 @@ fn check_header(path: &Path, header: &Header, line_after_header: usize) -> Resul
         .values()
         .find(|p| is_index_list(&p.name))
         .map(|p| &p.data_type);
-    match index_type {
-        Some(PropertyType::List(_, t)) if !matches!(t, ScalarType::Float | ScalarType::Double) => {}
+    let max_face_len = match index_type {
+        Some(PropertyType::List(count, t))
+            if !matches!(t, ScalarType::Float | ScalarType::Double) =>
+        {
+            scalar_max(count)
+        }
         Some(_) => {
             let msg = "the face's vertex_indices must be a list of an integer type";
             return Err(Error::new(path, msg));
@@ -299,16 +493,55 @@ fn check_header(path: &Path, header: &Header, line_after_header: usize) -> Resul
             let msg = "the face element has no `vertex_indices` or `vertex_index` list";
             return Err(Error::new(path, msg));
         }
-    }
+    };
     Ok(Layout {
-        ascii: header.encoding == Encoding::Ascii,
+        ascii,
         first_data_line: line_after_header,
         vertex_offset,
         face_offset,
         normals: ["nx", "ny", "nz"].iter().all(|p| has_scalar(vertex, &[p])),
         uvs: has_scalar(vertex, &["u", "s", "texture_u", "texture_s"])
             && has_scalar(vertex, &["v", "t", "texture_v", "texture_t"]),
+        max_face_len,
     })
+}
+
+/// The fewest payload bytes one item of `el` can take: in binary, each scalar's size and each
+/// list's count; in ASCII, two characters a value (a digit and a separator). A face's index list
+/// is counted with three entries, as a face with fewer is refused anyway.
+fn min_item_bytes(el: &ElementDef, ascii: bool) -> usize {
+    let size = |t: &ScalarType| if ascii { 2 } else { scalar_size(t) };
+    el.properties
+        .values()
+        .map(|p| match &p.data_type {
+            PropertyType::Scalar(t) => size(t),
+            PropertyType::List(count, item) if el.name == "face" && is_index_list(&p.name) => {
+                size(count) + 3 * size(item)
+            }
+            PropertyType::List(count, _) => size(count),
+        })
+        .sum()
+}
+
+fn scalar_size(t: &ScalarType) -> usize {
+    match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    }
+}
+
+/// The largest value of an integer scalar type (as a list count).
+fn scalar_max(t: &ScalarType) -> u64 {
+    match t {
+        ScalarType::Char => i8::MAX as u64,
+        ScalarType::UChar => u8::MAX.into(),
+        ScalarType::Short => i16::MAX as u64,
+        ScalarType::UShort => u16::MAX.into(),
+        ScalarType::Int => i32::MAX as u64,
+        ScalarType::UInt | ScalarType::Float | ScalarType::Double => u32::MAX.into(),
+    }
 }
 
 fn has_scalar(el: &ElementDef, names: &[&str]) -> bool {

@@ -1,23 +1,10 @@
 //! The `.tri` triangle soup of DESIGN.md: little-endian `u32 n`, then `n × 9 f32`
 //! (`v0 v1 v2` of each triangle), no header, nothing after.
 
-use crate::error::{Error, Result};
-use crate::geometry::Geometry;
 use glam::Vec3;
-use std::path::Path;
 
 /// Bytes per triangle: nine `f32`.
 const TRI_BYTES: usize = 36;
-
-/// Reads and decodes the `.tri` file at `path`.
-pub(super) fn load(path: &Path) -> Result<Geometry> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let triangles = decode_tri(&bytes).map_err(|msg| Error::new(path, msg))?;
-    Ok(Geometry {
-        triangles,
-        ..Geometry::default()
-    })
-}
 
 /// Decodes `.tri` bytes into triangles.
 ///
