@@ -503,3 +503,32 @@ impl Camera for AnyCamera {
         }
     }
 }
+
+/// Declares the two types a target names at compile time, from the *calling* crate's cargo
+/// features, so that firmware and WASM modules share one convention:
+/// - `Prims`, the [`Contents`](crate::traverse::Contents) of its traversal kernel: feature
+///   `mixed` ([`Mixed`](crate::traverse::Mixed)), else `triangles`, else `spheres`;
+/// - `Cam`, its camera: feature `any-camera` ([`AnyCamera`]), else `pinhole` ([`Pinhole`]).
+///
+/// A crate using it declares those features (`[features] triangles = [] …`) and enables one of
+/// each group.
+#[macro_export]
+macro_rules! target_types {
+    () => {
+        #[cfg(feature = "mixed")]
+        type Prims = $crate::traverse::Mixed;
+        #[cfg(all(feature = "triangles", not(feature = "mixed")))]
+        type Prims = $crate::traverse::Triangles;
+        #[cfg(all(
+            feature = "spheres",
+            not(feature = "mixed"),
+            not(feature = "triangles")
+        ))]
+        type Prims = $crate::traverse::Spheres;
+
+        #[cfg(feature = "any-camera")]
+        type Cam = $crate::description::AnyCamera;
+        #[cfg(all(feature = "pinhole", not(feature = "any-camera")))]
+        type Cam = $crate::camera::Pinhole;
+    };
+}

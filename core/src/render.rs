@@ -128,6 +128,27 @@ impl core::fmt::Display for RenderError {
     }
 }
 
+/// `$body` with `$k` the [`Contents`] type of `$scene`'s primitive kinds and `$p` whether
+/// `$bounces` asks for packets: the run-time choice of a kernel monomorphized at compile time.
+macro_rules! by_kernel {
+    ($scene:expr, $bounces:expr, |$k:ident, $p:ident| $body:expr) => {{
+        let packets = $bounces == Bounces::Packets;
+        match ($scene.contents() & (contents::TRIANGLES | contents::SPHERES), packets) {
+            (contents::TRIANGLES, true) => by_kernel!(@arm $k = Triangles, $p = true, $body),
+            (contents::TRIANGLES, false) => by_kernel!(@arm $k = Triangles, $p = false, $body),
+            (contents::SPHERES, true) => by_kernel!(@arm $k = Spheres, $p = true, $body),
+            (contents::SPHERES, false) => by_kernel!(@arm $k = Spheres, $p = false, $body),
+            (_, true) => by_kernel!(@arm $k = Mixed, $p = true, $body),
+            (_, false) => by_kernel!(@arm $k = Mixed, $p = false, $body),
+        }
+    }};
+    (@arm $k:ident = $t:ty, $p:ident = $v:expr, $body:expr) => {{
+        type $k = $t;
+        const $p: bool = $v;
+        $body
+    }};
+}
+
 /// Renders the rows `first_row..` that `out` holds (row-major, `settings.width` pixels a row):
 /// each pixel gets the mean radiance of its `spp` samples, linear RGB.
 ///
@@ -147,22 +168,28 @@ pub fn render_rows<C: Camera>(
     first_row: u32,
     out: &mut [[f32; 3]],
 ) -> Result<(), RenderError> {
-    let (m, l, s, row) = (materials, lights, settings, first_row);
-    match scene.contents() & (contents::TRIANGLES | contents::SPHERES) {
-        contents::TRIANGLES => render_rows_with::<Triangles, C>(scene, camera, m, l, s, row, out),
-        contents::SPHERES => render_rows_with::<Spheres, C>(scene, camera, m, l, s, row, out),
-        _ => render_rows_with::<Mixed, C>(scene, camera, m, l, s, row, out),
-    }
+    by_kernel!(scene, settings.bounces, |K, P| {
+        render_rows_with::<K, C, P>(scene, camera, materials, lights, settings, first_row, out)
+    })
 }
 
-/// [`render_rows`] with the traversal kernels for a fixed [`Contents`]: firmware that names its
-/// contents links only that kernel (the bytes table in `targets/cortex-m4f/README.md`). The scene
-/// must hold no other kind of primitive (one would be tested as the wrong kind, never out of
-/// bounds).
+/// Whether `scene` holds only primitive kinds that `K` handles: the precondition of
+/// [`render_rows_with`] for a target that names its contents.
+pub fn kernel_fits<K: Contents>(scene: &Scene) -> bool {
+    (K::TRIANGLES || scene.tri_count() == 0) && (K::SPHERES || scene.sphere_count() == 0)
+}
+
+/// [`render_rows`] with the traversal kernels for a fixed [`Contents`] and a fixed way of tracing
+/// bounces, whatever `settings.bounces` says: `PACKETS` as [`Bounces::Packets`], otherwise as
+/// [`Bounces::SingleRays`] (the image is the same). Firmware that names its contents links only
+/// that kernel, and with `PACKETS = false` no packet code at all, for targets where `wide`
+/// emulates its lanes in scalar code (Cortex-M4F; the bytes table in `targets/cortex-m4f/README.md`).
+/// The scene must hold no other kind of primitive than `K` ([`kernel_fits`]; one would be tested
+/// as the wrong kind, never out of bounds).
 ///
 /// # Errors
 /// As [`render_rows`].
-pub fn render_rows_with<K: Contents, C: Camera>(
+pub fn render_rows_with<K: Contents, C: Camera, const PACKETS: bool>(
     scene: &Scene,
     camera: &C,
     materials: &[Material],
@@ -188,7 +215,7 @@ pub fn render_rows_with<K: Contents, C: Camera>(
     for (k, pixel) in out.iter_mut().enumerate() {
         let (x, y) = ((k % w as usize) as u32, first_row + (k / w as usize) as u32);
         let mut sums = SampleSums::default();
-        render_pixel::<K, C>(&ctx, camera, x, y, 0..settings.spp, &mut sums);
+        render_pixel::<K, C, PACKETS>(&ctx, camera, x, y, 0..settings.spp, &mut sums);
         *pixel = (sums.sum / settings.spp as f32).to_array();
     }
     Ok(())
@@ -234,6 +261,24 @@ impl<C: Camera> Frame<'_, '_, C> {
         samples: Range<u32>,
         sums: &mut SampleSums,
     ) -> Result<(), RenderError> {
+        by_kernel!(self.scene, self.settings.bounces, |K, P| {
+            self.add_samples_with::<K, P>(x, y, samples, sums)
+        })
+    }
+
+    /// [`Frame::add_samples`] with the kernel chosen at compile time, as [`render_rows_with`]:
+    /// contents `K` (the scene must fit it, [`kernel_fits`]) and packets or not, whatever
+    /// `settings.bounces` says.
+    ///
+    /// # Errors
+    /// As [`Frame::add_samples`].
+    pub fn add_samples_with<K: Contents, const PACKETS: bool>(
+        &self,
+        x: u32,
+        y: u32,
+        samples: Range<u32>,
+        sums: &mut SampleSums,
+    ) -> Result<(), RenderError> {
         let s = self.settings;
         if s.width == 0 || s.height == 0 {
             return Err(RenderError::EmptyImage);
@@ -247,12 +292,7 @@ impl<C: Camera> Frame<'_, '_, C> {
             lights: self.lights,
             settings: s,
         };
-        let (cam, s) = (self.camera, samples);
-        match self.scene.contents() & (contents::TRIANGLES | contents::SPHERES) {
-            contents::TRIANGLES => render_pixel::<Triangles, C>(&ctx, cam, x, y, s, sums),
-            contents::SPHERES => render_pixel::<Spheres, C>(&ctx, cam, x, y, s, sums),
-            _ => render_pixel::<Mixed, C>(&ctx, cam, x, y, s, sums),
-        }
+        render_pixel::<K, C, PACKETS>(&ctx, self.camera, x, y, samples, sums);
         Ok(())
     }
 }
@@ -294,8 +334,9 @@ pub fn emitters(scene: &Scene, materials: &[Material], out: &mut [u32]) -> usize
     n
 }
 
-/// Adds pixel `(x, y)`'s sample radiances over `samples` to `sums`, in sample order.
-fn render_pixel<K: Contents, C: Camera>(
+/// Adds pixel `(x, y)`'s sample radiances over `samples` to `sums`, in sample order; bounce
+/// rays as 8-wide packets when `PACKETS`.
+fn render_pixel<K: Contents, C: Camera, const PACKETS: bool>(
     ctx: &Context,
     camera: &C,
     x: u32,
@@ -321,9 +362,10 @@ fn render_pixel<K: Contents, C: Camera>(
             *path = Path::new(ray, rng);
         }
         let paths = &mut paths[..n];
-        match settings.bounces {
-            Bounces::Packets => trace_paths_packed::<K>(ctx, paths),
-            Bounces::SingleRays => paths.iter_mut().for_each(|p| trace_path::<K>(ctx, p)),
+        if PACKETS {
+            trace_paths_packed::<K>(ctx, paths);
+        } else {
+            paths.iter_mut().for_each(|p| trace_path::<K>(ctx, p));
         }
         for path in paths.iter() {
             // A non-finite sample (a NaN from a degenerate normal, say) is dropped, not spread.

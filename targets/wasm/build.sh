@@ -3,8 +3,8 @@
 # targets/wasm/out/kdray_wasm_{scalar,simd128}.wasm.
 #   build.sh                  the size profile: opt-level "z", LTO (the bytes table)
 #   build.sh --profile speed  opt-level 3, LTO, into out/speed/ (for throughput)
-# Extra cargo arguments (e.g. --features) are passed on. CARGO_TARGET_DIR is respected (default:
-# target/ here).
+# Extra cargo arguments (e.g. --no-default-features --features "triangles pinhole") are passed on.
+# CARGO_TARGET_DIR is respected (default: target/ here); KDRAY_WASM_OUT overrides the output folder.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 cd "$here"
@@ -16,6 +16,7 @@ if [[ "${1:-}" == "--profile" ]]; then
   shift 2
 fi
 rustup target add wasm32-unknown-unknown >/dev/null 2>&1 || true
+out="${KDRAY_WASM_OUT:-$out}"
 mkdir -p "$out"
 base="${CARGO_TARGET_DIR:-$here/target}"
 for variant in scalar simd128; do

@@ -361,7 +361,7 @@ fn srgb_transfer_hits_its_anchor_points() {
 
 #[test]
 fn the_kernel_a_target_names_renders_what_render_rows_does() {
-    use kdray_core::traverse::{Mixed, Triangles};
+    use kdray_core::traverse::{Mixed, Spheres, Triangles};
     // The default room without its spheres: triangles only.
     let mut file = SceneFile::default_scene();
     file.spheres.clear();
@@ -373,12 +373,24 @@ fn the_kernel_a_target_names_renders_what_render_rows_does() {
     let mut s = d.settings();
     (s.width, s.height, s.spp, s.bounces) = (10, 10, 2, Bounces::SingleRays);
     let (m, l) = (d.materials(), d.lights());
-    let mut images = [[[0.0f32; 3]; 100]; 3];
+    let mut images = [[[0.0f32; 3]; 100]; 4];
     render::render_rows(&scene, &camera, m, l, &s, 0, &mut images[0]).unwrap();
-    render::render_rows_with::<Triangles, _>(&scene, &camera, m, l, &s, 0, &mut images[1]).unwrap();
-    render::render_rows_with::<Mixed, _>(&scene, &camera, m, l, &s, 0, &mut images[2]).unwrap();
+    render::render_rows_with::<Triangles, _, false>(&scene, &camera, m, l, &s, 0, &mut images[1])
+        .unwrap();
+    render::render_rows_with::<Mixed, _, true>(&scene, &camera, m, l, &s, 0, &mut images[2])
+        .unwrap();
+    // Single rays whatever the settings say.
+    s.bounces = Bounces::Packets;
+    render::render_rows_with::<Triangles, _, false>(&scene, &camera, m, l, &s, 0, &mut images[3])
+        .unwrap();
     let bits = |px: &[[f32; 3]]| px.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
-    assert_eq!(bits(&images[0]), bits(&images[1]));
-    assert_eq!(bits(&images[0]), bits(&images[2]));
+    for image in &images[1..] {
+        assert_eq!(bits(&images[0]), bits(image));
+    }
+    assert!(render::kernel_fits::<Triangles>(&scene) && render::kernel_fits::<Mixed>(&scene));
+    assert!(!render::kernel_fits::<Spheres>(&scene));
+    let (_, room_words, _) = default_scene();
+    let room = Scene::from_words(&room_words).unwrap();
+    assert!(!render::kernel_fits::<Triangles>(&room) && render::kernel_fits::<Mixed>(&room));
     assert!(images[0].iter().flatten().any(|&c| c > 0.0));
 }

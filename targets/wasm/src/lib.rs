@@ -20,12 +20,15 @@ use core::arch::wasm32;
 use core::cell::RefCell;
 use core::fmt::Write;
 use glam::Vec3;
-use kdray_core::description::{AnyCamera, Description};
-use kdray_core::render::{self, Bounces};
+use kdray_core::description::Description;
+use kdray_core::render;
 use kdray_core::simd::{RayPacket, f32x4, f32x8};
 use kdray_core::{Hit, Ray, Scene, color};
 
 mod page;
+
+// `Prims` (the traversal kernel) and `Cam` (the camera) from this crate's features.
+kdray_core::target_types!();
 
 /// What an export returns when it fails (as a negative `i32`).
 #[repr(i32)]
@@ -56,7 +59,7 @@ struct Loaded {
     /// Byte ranges of the scene's and description's words, which no output may overlap.
     inputs: [(usize, usize); 2],
     desc: Description<'static>,
-    camera: AnyCamera,
+    camera: Cam,
 }
 
 /// Regions handed out by `kd_alloc`: `[start, end)` byte ranges of linear memory.
@@ -197,6 +200,10 @@ pub extern "C" fn kd_load(scene_ptr: u32, scene_words: u32, desc_ptr: u32, desc_
             Ok(s) => s,
             Err(e) => return Err(fail(state, Status::BadScene, e)),
         };
+        if !render::kernel_fits::<Prims>(&scene) {
+            let msg = "the scene holds primitives this build leaves out";
+            return Err(fail(state, Status::BadScene, msg));
+        }
         let (desc, desc_range) = if desc_words == 0 {
             (Description::framing(&scene), (0, 0))
         } else {
@@ -206,7 +213,7 @@ pub extern "C" fn kd_load(scene_ptr: u32, scene_words: u32, desc_ptr: u32, desc_
                 Err(e) => return Err(fail(state, Status::BadDescription, e)),
             }
         };
-        let camera = match desc.camera::<AnyCamera>() {
+        let camera = match desc.camera::<Cam>() {
             Ok(c) => c,
             Err(e) => return Err(fail(state, Status::BadDescription, e)),
         };
@@ -278,9 +285,10 @@ pub extern "C" fn kd_render(
             s.spp = spp;
         }
         s.seed = u64::from(seed_hi) << 32 | u64::from(seed_lo);
-        s.bounces = match single {
-            0 => Bounces::Packets,
-            1 => Bounces::SingleRays,
+        // The kernel with 8-wide packet bounces, or every ray through the scalar walk.
+        let render = match single {
+            0 => render::render_rows_with::<Prims, Cam, true>,
+            1 => render::render_rows_with::<Prims, Cam, false>,
             _ => return Err(Status::BadArgument),
         };
         let pixels = rows.checked_mul(s.width).ok_or(Status::BadArgument)?;
@@ -289,7 +297,7 @@ pub extern "C" fn kd_render(
         disjoint(out, &loaded.inputs)?;
         let (out, _) = out.as_chunks_mut::<3>();
         let d = &loaded.desc;
-        match render::render_rows(
+        match render(
             &loaded.scene,
             &loaded.camera,
             d.materials(),
@@ -366,18 +374,18 @@ pub extern "C" fn kd_trace(rays_ptr: u32, n: u32, hits_ptr: u32, packet: u32) ->
                 1 => batch
                     .iter()
                     .zip(&mut found)
-                    .for_each(|(ray, hit)| *hit = scene.intersect(ray)),
+                    .for_each(|(ray, hit)| *hit = scene.intersect_with::<Prims>(ray)),
                 4 => {
                     for (rs, hs) in batch.chunks(4).zip(found.chunks_mut(4)) {
                         let p = RayPacket::<f32x4>::from_rays(rs);
-                        scene.intersect_packet(&p).write_active(&p, hs);
+                        let hits = scene.intersect_packet_with::<Prims, f32x4>(&p);
+                        hits.write_active(&p, hs);
                     }
                 }
                 8 => {
                     let p = RayPacket::<f32x8>::from_rays(batch);
-                    scene
-                        .intersect_packet(&p)
-                        .write_active(&p, &mut found[..batch.len()]);
+                    let hits = scene.intersect_packet_with::<Prims, f32x8>(&p);
+                    hits.write_active(&p, &mut found[..batch.len()]);
                 }
                 _ => return Err(Status::BadArgument),
             }

@@ -7,13 +7,14 @@
 
 use crate::{Status, disjoint, with_state};
 use glam::Vec3;
-use kdray_core::render::{Bounces, Frame, SampleSums};
+use kdray_core::render::{Frame, SampleSums};
 
 /// Adds sample `sample` of every pixel in rows `first_row .. first_row + rows` of a
 /// `width × height` image (0, 0: the description's size) to the sums at `sums_ptr`
 /// (`rows · width` pixels, 3 f32 each: linear RGB, the layout [`crate::kd_to_rgba`] reads).
 /// Every ray goes through the scalar walk (with one sample a pixel, 8-wide packets would run one
-/// live lane; the image is the same either way). Returns the number of rays traced — camera,
+/// live lane; the image is the same either way), with the traversal kernel of this build's
+/// contents (`Prims`). Returns the number of rays traced — camera,
 /// bounce and shadow rays, saturated at `i32::MAX` — or a negative [`Status`].
 #[unsafe(no_mangle)]
 pub extern "C" fn kd_accumulate(
@@ -30,7 +31,6 @@ pub extern "C" fn kd_accumulate(
         if width != 0 || height != 0 {
             (s.width, s.height) = (width, height);
         }
-        s.bounces = Bounces::SingleRays;
         let end_row = first_row.checked_add(rows).ok_or(Status::BadArgument)?;
         let end_sample = sample.checked_add(1).ok_or(Status::BadArgument)?;
         if s.width == 0 || s.height == 0 || end_row > s.height {
@@ -61,7 +61,7 @@ pub extern "C" fn kd_accumulate(
                 ..SampleSums::default()
             };
             frame
-                .add_samples(x, y, sample..end_sample, &mut sums)
+                .add_samples_with::<crate::Prims, false>(x, y, sample..end_sample, &mut sums)
                 .map_err(|_| Status::BadArgument)?;
             *px = sums.sum.to_array();
             rays += sums.rays;
