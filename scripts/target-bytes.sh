@@ -2,8 +2,10 @@
 # The bytes table: `.text` of the Cortex-M4F firmware and the size of the WASM module (scalar and
 # simd128), both `opt-level = "z"` with LTO, for each variant of what they name at compile time —
 # the primitive kinds (the traversal kernel) and the camera. Each firmware variant also runs its
-# scene under QEMU against the host's render (targets/cortex-m4f/run.sh). Prints a Markdown table.
-# Usage: scripts/target-bytes.sh   (CARGO_TARGET_DIR respected; takes a few minutes)
+# scene under QEMU against the host's render (targets/cortex-m4f/run.sh). Prints a Markdown table;
+# with --update, also writes it into README.md and targets/cortex-m4f/README.md between the
+# markers <!-- target-bytes:begin --> and <!-- target-bytes:end -->.
+# Usage: scripts/target-bytes.sh [--update]   (CARGO_TARGET_DIR respected; takes a few minutes)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 base="${CARGO_TARGET_DIR:-$root/target}"
@@ -18,6 +20,9 @@ variants=(
 )
 
 elf="$base/targets/cortex-m4f/thumbv7em-none-eabihf/release/kdray-cortex-m4f"
+table=$(mktemp)
+trap 'rm -f "$table"' EXIT
+{
 echo "| variant (cargo features) | firmware .text | .wasm scalar | .wasm simd128 | firmware = host |"
 echo "|---|---:|---:|---:|---|"
 for v in "${variants[@]}"; do
@@ -33,3 +38,15 @@ for v in "${variants[@]}"; do
   simd=$(stat -c %s "$out/kdray_wasm_simd128.wasm")
   printf '| %s (`%s`) | %s | %s | %s | %s |\n' "$name" "$features" "$text" "$scalar" "$simd" "${match:-no}"
 done
+} | tee "$table"
+
+if [[ "${1:-}" == "--update" ]]; then
+  for readme in "$root/README.md" "$root/targets/cortex-m4f/README.md"; do
+    awk -v table="$table" '
+      /<!-- target-bytes:end -->/ { skip = 0 }
+      !skip { print }
+      /<!-- target-bytes:begin -->/ { while ((getline line < table) > 0) print line; skip = 1 }
+    ' "$readme" >"$readme.new"
+    mv "$readme.new" "$readme"
+  done
+fi
