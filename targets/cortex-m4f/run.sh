@@ -6,7 +6,8 @@
 # and exits 1 unless they match.
 # Usage: run.sh [SCENE.toml] (default: host/scenes/default.toml). KDRAY_FW_SIZE (default 32x32),
 # KDRAY_FW_SPP (default 2) set the image; KDRAY_FW_FEATURES (e.g. "triangles pinhole") the
-# firmware variant (default: mixed, any camera). Installs the Rust target and QEMU when missing.
+# firmware variant (default: mixed, any camera); KDRAY a host kdray binary to use instead of a
+# debug build. Installs the Rust target and QEMU when missing.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
@@ -22,8 +23,13 @@ fi
 
 base="${CARGO_TARGET_DIR:-$root/target}"
 cd "$root"
-cargo build --quiet -p kdray
-kdray="$base/debug/kdray"
+# The host binary: $KDRAY when set (e.g. a release build from scripts/targets.sh), else a debug build.
+if [[ -n "${KDRAY:-}" ]]; then
+  kdray="$KDRAY"
+else
+  cargo build --quiet -p kdray
+  kdray="${CARGO_TARGET_DIR:-$root/target}/debug/kdray"
+fi
 
 # The scene is built now, from the scene file: the firmware never embeds a stale binary.
 export KDRAY_FW_SCENE="$base/targets/cortex-m4f-scene"

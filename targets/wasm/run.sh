@@ -6,7 +6,8 @@
 # Prints one line:
 #   wasm-node scalar=yes simd128=yes trace=yes checksum=… host=… size=… spp=… match=yes|no
 # and exits 1 unless both match. Usage: run.sh [SCENE.toml] (default: host/scenes/default.toml);
-# KDRAY_WASM_SIZE (default 32x32) and KDRAY_WASM_SPP (default 4) set the image.
+# KDRAY_WASM_SIZE (default 32x32) and KDRAY_WASM_SPP (default 4) set the image; KDRAY a host kdray
+# binary to use instead of a debug build.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
@@ -16,8 +17,13 @@ spp="${KDRAY_WASM_SPP:-4}"
 command -v node >/dev/null || { apt-get update -qq && apt-get install -y -qq nodejs >/dev/null; }
 
 cd "$root"
-cargo build --quiet -p kdray
-kdray="${CARGO_TARGET_DIR:-$root/target}/debug/kdray"
+# The host binary: $KDRAY when set (e.g. a release build from scripts/targets.sh), else a debug build.
+if [[ -n "${KDRAY:-}" ]]; then
+  kdray="$KDRAY"
+else
+  cargo build --quiet -p kdray
+  kdray="${CARGO_TARGET_DIR:-$root/target}/debug/kdray"
+fi
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}/targets" "$here/build.sh" >/dev/null
 
 out="$here/out"
