@@ -9,7 +9,7 @@
 //! # Layout (little-endian words, like the scene)
 //! ```text
 //!  0  MAGIC          0x4452_444B, "KDRD" as a little-endian u32
-//!  1  VERSION        1
+//!  1  VERSION        2 (1: before one-sided lights and the lens cameras)
 //!  2  TOTAL_WORDS    length of the whole array in words
 //!  3  SCENE_WORDS    TOTAL_WORDS of the scene it belongs to
 //!  4  SCENE_HASH     scene_hash() of that scene's words (BUILD_MS, CHECKSUM counted as 0)
@@ -24,32 +24,40 @@
 //! 15  CAMERA_WORDS   n, the camera's parameter words that follow (≤ MAX_CAMERA_WORDS)
 //! 16 ..              n camera words (per kind, see below)
 //!     MATERIAL_COUNT m ≤ MAX_MATERIALS, then m × 8 words:
-//!                    kind (0 diffuse, 1 mirror, 2 glass, 3 emissive), albedo rgb in [0, 1],
-//!                    emission rgb ≥ 0, ior > 0 (f32)
+//!                    kind (bits 0..8: 0 diffuse, 1 mirror, 2 glass, 3 emissive; bit 8: the
+//!                    light emits from both sides, `two_sided`; no other bit set),
+//!                    albedo rgb in [0, 1], emission rgb ≥ 0, ior > 0 (f32)
 //!     LIGHT_COUNT    k, then k primitive ids (storage order): exactly the primitives whose
 //!                    material emits, ascending ([`crate::render::emitters`])
 //! ```
 //! Camera words (f32, angles in degrees, `[start, middle, end]` triples as in `docs/SCENE.md`):
 //! - pinhole (0), 10 words: eye xyz, target xyz, up xyz, vertical field of view;
 //! - fisheye (1), 9 words: origin xyz, φ triple, θ triple;
-//! - parallel (2), 11 words: origin xyz, φ, θ, horizontal triple, vertical triple.
+//! - parallel (2), 11 words: origin xyz, φ, θ, horizontal triple, vertical triple;
+//! - thick lens (3), 17 words: eye xyz, target xyz, up xyz, vertical field of view, then the lens
+//!   r1, r2, l1, l2, ior, aperture, and the sensor's distance behind the front vertex (the host
+//!   resolves a scene's `focus` into it);
+//! - lens array (4), 14 words: eye xyz, target xyz, up xyz, size w h, pitch h v, gap.
 //!
 //! A camera is decoded only when asked for, as the type the caller names
 //! ([`Description::camera`]): firmware that renders through a [`Pinhole`] links the pinhole's
 //! decoder alone, and a page that takes any camera names [`AnyCamera`].
 
-use crate::camera::{Camera, Fisheye, Parallel, Pinhole, Span};
+use crate::camera::{
+    Camera, Fisheye, Frame, LensArray, LensShape, Parallel, Pinhole, Span, ThickLens,
+};
 use crate::format::Scene;
 use crate::math;
 use crate::ray::Ray;
 use crate::render::{Bounces, Material, MaterialKind, Settings};
+use crate::sampling::Pcg32;
 use crate::words::Fnv1a;
 use glam::Vec3;
 
 /// "KDRD" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRD");
 /// The version this core reads and the host writes.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// Words before the camera's parameters.
 pub const HEADER_WORDS: usize = 16;
 /// The most camera parameter words.
@@ -87,6 +95,8 @@ pub mod camera_kind {
     pub const PINHOLE: u32 = 0;
     pub const FISHEYE: u32 = 1;
     pub const PARALLEL: u32 = 2;
+    pub const THICK_LENS: u32 = 3;
+    pub const LENS_ARRAY: u32 = 4;
 }
 
 /// Why words are not a render description for a scene.
@@ -379,7 +389,10 @@ fn check_settings(s: &Settings) -> Result<(), DescError> {
 
 /// One material's 8 words, or `None` when a value is out of range.
 fn material(w: &[u32]) -> Option<Material> {
-    let kind = match w[0] {
+    if w[0] & !(TWO_SIDED | 0xff) != 0 {
+        return None;
+    }
+    let kind = match w[0] & 0xff {
         0 => MaterialKind::Diffuse,
         1 => MaterialKind::Mirror,
         2 => MaterialKind::Glass,
@@ -394,8 +407,12 @@ fn material(w: &[u32]) -> Option<Material> {
         albedo,
         emission,
         ior,
+        two_sided: w[0] & TWO_SIDED != 0,
     })
 }
+
+/// The material kind word's flag for [`Material::two_sided`].
+const TWO_SIDED: u32 = 1 << 8;
 
 /// A material's words (the layout [`Description::from_words`] reads).
 pub fn material_words(m: &Material) -> [u32; MATERIAL_WORDS] {
@@ -407,6 +424,7 @@ pub fn material_words(m: &Material) -> [u32; MATERIAL_WORDS] {
     };
     let [ar, ag, ab] = m.albedo.to_array().map(f32::to_bits);
     let [er, eg, eb] = m.emission.to_array().map(f32::to_bits);
+    let kind = kind | if m.two_sided { TWO_SIDED } else { 0 };
     [kind, ar, ag, ab, er, eg, eb, m.ior.to_bits()]
 }
 
@@ -474,12 +492,35 @@ impl FromDescription for Parallel {
     }
 }
 
+impl FromDescription for ThickLens {
+    fn from_description(kind: u32, words: &[u32]) -> Result<Self, DescError> {
+        let f = camera_floats::<17>(kind, camera_kind::THICK_LENS, words)?;
+        let v = |i: usize| Vec3::new(f[i], f[i + 1], f[i + 2]);
+        let frame = Frame::look_at(v(0), v(3), v(6)).map_err(|_| DescError::BadCamera)?;
+        let lens = LensShape::new(f[10], f[11], f[12], f[13], f[14], f[15])
+            .map_err(|_| DescError::BadCamera)?;
+        ThickLens::new(frame, lens, f[16], f[9]).map_err(|_| DescError::BadCamera)
+    }
+}
+
+impl FromDescription for LensArray {
+    fn from_description(kind: u32, words: &[u32]) -> Result<Self, DescError> {
+        let f = camera_floats::<14>(kind, camera_kind::LENS_ARRAY, words)?;
+        let v = |i: usize| Vec3::new(f[i], f[i + 1], f[i + 2]);
+        let frame = Frame::look_at(v(0), v(3), v(6)).map_err(|_| DescError::BadCamera)?;
+        LensArray::new(frame, [f[9], f[10]], [f[11], f[12]], f[13])
+            .map_err(|_| DescError::BadCamera)
+    }
+}
+
 /// Whichever camera a description holds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AnyCamera {
     Pinhole(Pinhole),
     Fisheye(Fisheye),
     Parallel(Parallel),
+    ThickLens(ThickLens),
+    LensArray(LensArray),
 }
 
 impl FromDescription for AnyCamera {
@@ -488,6 +529,12 @@ impl FromDescription for AnyCamera {
             camera_kind::PINHOLE => Pinhole::from_description(kind, words).map(Self::Pinhole),
             camera_kind::FISHEYE => Fisheye::from_description(kind, words).map(Self::Fisheye),
             camera_kind::PARALLEL => Parallel::from_description(kind, words).map(Self::Parallel),
+            camera_kind::THICK_LENS => {
+                ThickLens::from_description(kind, words).map(Self::ThickLens)
+            }
+            camera_kind::LENS_ARRAY => {
+                LensArray::from_description(kind, words).map(Self::LensArray)
+            }
             _ => Err(DescError::BadCamera),
         }
     }
@@ -500,6 +547,27 @@ impl Camera for AnyCamera {
             Self::Pinhole(c) => c.ray(x, y, width, height),
             Self::Fisheye(c) => c.ray(x, y, width, height),
             Self::Parallel(c) => c.ray(x, y, width, height),
+            Self::ThickLens(c) => c.ray(x, y, width, height),
+            Self::LensArray(c) => c.ray(x, y, width, height),
+        }
+    }
+
+    /// Each camera's own [`Camera::sample`]: the thick lens draws its lens point here.
+    #[inline]
+    fn sample(
+        &self,
+        x: f32,
+        y: f32,
+        width: u32,
+        height: u32,
+        rng: &mut Pcg32,
+    ) -> Option<(Ray, f32)> {
+        match self {
+            Self::Pinhole(c) => c.sample(x, y, width, height, rng),
+            Self::Fisheye(c) => c.sample(x, y, width, height, rng),
+            Self::Parallel(c) => c.sample(x, y, width, height, rng),
+            Self::ThickLens(c) => c.sample(x, y, width, height, rng),
+            Self::LensArray(c) => c.sample(x, y, width, height, rng),
         }
     }
 }

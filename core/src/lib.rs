@@ -20,7 +20,7 @@
 //! - [`sphere`]: the cancellation-free sphere test (Ray Tracing Gems ch. 7).
 //! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (seed §5).
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
-//! - [`camera`]: pinhole, the seed's fisheye and parallel cameras.
+//! - [`camera`]: pinhole, the seed's fisheye and parallel cameras, its thick lens and lens array.
 //! - [`format`], [`node`]: the flat scene format and its validation.
 //! - [`traverse`]: scalar closest-hit and any-hit traversal.
 //! - [`render`]: the render kernel, a path tracer writing into a caller's buffer.

@@ -43,3 +43,9 @@ pub fn sign_not_zero(x: f32) -> f32 {
 pub fn radians(deg: f32) -> f32 {
     deg * (core::f32::consts::PI / 180.0)
 }
+
+/// `x` rounded to the nearest integer, halves away from zero.
+#[inline]
+pub fn round(x: f32) -> f32 {
+    libm::roundf(x)
+}

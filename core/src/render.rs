@@ -16,13 +16,19 @@
 //! - `Mirror` reflects about the shading normal, times `albedo`;
 //! - `Glass` reflects with the exact Fresnel probability ([`optics::fresnel_dielectric`]) and
 //!   otherwise refracts ([`optics::refract`]), times `albedo` either way;
-//! - emission (from either side of a surface) is added where a camera ray or a specular bounce
-//!   lands on it; after a diffuse bounce it is not, since next-event estimation counted it;
+//! - emission is added where a camera ray or a specular bounce lands on it; after a diffuse
+//!   bounce it is not, since next-event estimation counted it. A light emits from the side its
+//!   geometric normal faces (a triangle's `(v1 − v0) × (v2 − v0)`, a sphere's outside) unless its
+//!   material is [`Material::two_sided`]; emission and next-event estimation agree on this, so
+//!   the two estimators of direct light have the same mean;
 //! - a ray that leaves the scene adds `background`.
 //!
 //! Bounce, refraction and shadow rays start from the hit point moved off its surface by a bound
 //! derived from that point's floating-point error ([`crate::spawn`]), so they never hit the
 //! surface they leave, at any scale.
+//!
+//! A sample's camera ray comes from [`Camera::sample`], whose weight scales everything the path
+//! gathers; a sample the camera drops (a lens's rim) adds zero but still counts in the mean.
 //!
 //! Each sample depends only on the pixel, the sample index and [`Settings::seed`], so an image
 //! does not depend on how rows are split between threads.
@@ -64,6 +70,9 @@ pub struct Material {
     pub emission: Vec3,
     /// Index of refraction (glass).
     pub ior: f32,
+    /// Whether the surface emits from both sides; otherwise only from the side its geometric
+    /// normal faces.
+    pub two_sided: bool,
 }
 
 impl Material {
@@ -73,6 +82,7 @@ impl Material {
         albedo: Vec3::splat(0.8),
         emission: Vec3::ZERO,
         ior: 1.5,
+        two_sided: false,
     };
 }
 
@@ -349,20 +359,24 @@ fn render_pixel<K: Contents, C: Camera, const PACKETS: bool>(
     let mut first = samples.start;
     while first < samples.end {
         let n = (samples.end - first).min(8) as usize;
-        let mut paths = [Path::new(Ray::new(Vec3::ZERO, Vec3::Z), Pcg32::new(0, 0)); 8];
-        for (i, path) in paths.iter_mut().enumerate().take(n) {
+        let mut paths = [Path::new(Ray::new(Vec3::ZERO, Vec3::Z), Pcg32::new(0, 0), 0.0); 8];
+        // The samples the camera keeps, packed to the front.
+        let mut kept = 0;
+        for i in 0..n {
             let mut rng = Pcg32::new(settings.seed, pixel << 32 | u64::from(first + i as u32));
             let (jx, jy) = (rng.next_f32(), rng.next_f32());
-            let ray = camera.ray(
-                x as f32 + jx,
-                y as f32 + jy,
-                settings.width,
-                settings.height,
-            );
-            *path = Path::new(ray, rng);
+            let (px, py) = (x as f32 + jx, y as f32 + jy);
+            if let Some((ray, weight)) =
+                camera.sample(px, py, settings.width, settings.height, &mut rng)
+            {
+                paths[kept] = Path::new(ray, rng, weight);
+                kept += 1;
+            }
         }
-        let paths = &mut paths[..n];
-        if PACKETS {
+        let paths = &mut paths[..kept];
+        if paths.is_empty() {
+            // The camera dropped every sample of this round: nothing to trace.
+        } else if PACKETS {
             trace_paths_packed::<K>(ctx, paths);
         } else {
             paths.iter_mut().for_each(|p| trace_path::<K>(ctx, p));
@@ -402,12 +416,13 @@ struct Shadow {
 }
 
 impl Path {
-    fn new(ray: Ray, rng: Pcg32) -> Self {
+    /// A path starting with camera ray `ray` of weight `weight`.
+    fn new(ray: Ray, rng: Pcg32, weight: f32) -> Self {
         Self {
             ray,
             rng,
             radiance: Vec3::ZERO,
-            throughput: Vec3::ONE,
+            throughput: Vec3::splat(weight),
             count_emission: true,
             rays: 0,
         }
@@ -501,16 +516,18 @@ fn vertex(ctx: &Context, path: &mut Path, hit: &Hit) -> (bool, Option<Shadow>) {
         return (false, None);
     }
     let m = ctx.material(hit.prim);
-    if path.count_emission {
-        path.radiance += path.throughput * m.emission;
-    }
     // The hit point rebuilt from the primitive, with its error bound (crate::spawn).
     let point = scene.surface_point(hit, &ray);
-    let Some((geometric, shading)) = normals(scene, hit, point.p) else {
+    let normals = normals(scene, hit, point.p);
+    // Whether the ray meets the side the geometric normal faces.
+    let front = normals.is_some_and(|(geometric, _)| geometric.dot(ray.dir) < 0.0);
+    if path.count_emission && (front || m.two_sided) {
+        path.radiance += path.throughput * m.emission;
+    }
+    let Some((geometric, shading)) = normals else {
         return (false, None);
     };
     // Both normals turned to the side the ray comes from.
-    let front = geometric.dot(ray.dir) < 0.0;
     let ng = if front { geometric } else { -geometric };
     let ns = if shading.dot(ng) > 0.0 { shading } else { ng };
     let diffuse = matches!(m.kind, MaterialKind::Diffuse | MaterialKind::Emissive);
@@ -568,7 +585,14 @@ fn direct_light(ctx: &Context, origin: Vec3, n: Vec3, rng: &mut Pcg32) -> Option
     let dist2 = to_light.length_squared();
     let dist = math::sqrt(dist2);
     let wi = to_light / dist;
-    let (cos_here, cos_there) = (wi.dot(n), wi.dot(nl).abs());
+    let light = ctx.material(prim);
+    // A one-sided light sends nothing to points behind it (as emission where a ray lands on it).
+    let cos_there = if light.two_sided {
+        wi.dot(nl).abs()
+    } else {
+        -wi.dot(nl)
+    };
+    let cos_here = wi.dot(n);
     if !(cos_here > 0.0 && cos_there > 0.0 && dist2 > 0.0) {
         return None;
     }
@@ -576,8 +600,7 @@ fn direct_light(ctx: &Context, origin: Vec3, n: Vec3, rng: &mut Pcg32) -> Option
     let shadow = Ray::new(origin, wi).with_range(0.0, dist * (1.0 - SHADOW_SLACK));
     // pdf of the point, per unit area: 1 / (count · area); converted to solid angle by
     // dist² / cos_there.
-    let light =
-        ctx.material(prim).emission * (cos_here * cos_there / dist2 * area * count as f32 / PI);
+    let light = light.emission * (cos_here * cos_there / dist2 * area * count as f32 / PI);
     Some((shadow, light))
 }
 

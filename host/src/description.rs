@@ -7,7 +7,8 @@ use crate::error::{Error, Result};
 use crate::scene::{CameraDesc, SceneFile};
 use kdray_core::Scene;
 use kdray_core::description::{
-    self as desc, Description, HEADER_WORDS, MAX_MATERIALS, camera_kind, header, material_words,
+    self as desc, AnyCamera, Description, HEADER_WORDS, MAX_MATERIALS, camera_kind, header,
+    material_words,
 };
 use kdray_core::render::{self, Material};
 
@@ -83,6 +84,37 @@ fn camera_words(camera: &CameraDesc) -> (u32, Vec<u32>) {
         } => (
             camera_kind::PARALLEL,
             [&origin[..], &[*phi, *theta], horizontal, vertical].concat(),
+        ),
+        CameraDesc::ThickLens {
+            eye,
+            target,
+            up,
+            vfov,
+            lens,
+            ..
+        } => {
+            // The focus resolved into the sensor distance (NaN, which the core's check refuses,
+            // for a camera that does not build: load_scene has refused it already).
+            let sensor = match camera.build() {
+                Ok(AnyCamera::ThickLens(c)) => c.sensor_distance(),
+                _ => f32::NAN,
+            };
+            let tail = [*vfov, lens[0], lens[1], lens[2], lens[3], lens[4], lens[5], sensor];
+            (
+                camera_kind::THICK_LENS,
+                [&eye[..], target, up, &tail].concat(),
+            )
+        }
+        CameraDesc::LensArray {
+            eye,
+            target,
+            up,
+            size,
+            pitch,
+            gap,
+        } => (
+            camera_kind::LENS_ARRAY,
+            [&eye[..], target, up, size, pitch, &[*gap]].concat(),
         ),
     };
     (kind, floats.iter().map(|f| f.to_bits()).collect())

@@ -6,6 +6,7 @@
 pub mod error;
 pub mod files;
 pub mod geometry;
+pub mod input;
 pub mod load;
 pub mod scene;
 

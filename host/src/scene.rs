@@ -8,191 +8,17 @@
 
 mod assemble;
 mod camera;
+mod desc;
+mod placement;
 
-pub use camera::SceneCamera;
+pub use camera::{CameraDesc, DEFAULT_LENS, Focus, SceneCamera};
+pub use desc::{MaterialDesc, MaterialKind, MeshDesc, RenderDesc, Scale, SphereDesc, TriangleDesc};
 
 use crate::error::{Error, Result};
 use serde::Deserialize;
 use serde::de::IgnoredAny;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
-
-/// How the image is looked at. Angles in degrees; `[start, middle, end]` triples follow the seed
-/// document (the middle must be the midpoint).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
-pub enum CameraDesc {
-    /// A perspective camera at `eye` looking at `target`.
-    Pinhole {
-        eye: [f32; 3],
-        target: [f32; 3],
-        /// The image's up direction; default `[0, 1, 0]`.
-        #[serde(default = "default_up")]
-        up: [f32; 3],
-        /// Vertical field of view in degrees, in (0, 180); default 40.
-        #[serde(default = "default_vfov")]
-        vfov: f32,
-    },
-    /// The seed's fisheye: one origin, φ across the width and θ down the height.
-    Fisheye {
-        origin: [f32; 3],
-        phi: [f32; 3],
-        theta: [f32; 3],
-    },
-    /// The seed's parallel camera: direction `d(φ, θ)`, origins offset by `horizontal` along
-    /// `(−sinφ, cosφ, 0)` and `vertical` along `(cosθ cosφ, cosθ sinφ, −sinθ)`.
-    Parallel {
-        origin: [f32; 3],
-        phi: f32,
-        theta: f32,
-        horizontal: [f32; 3],
-        vertical: [f32; 3],
-    },
-}
-
-fn default_up() -> [f32; 3] {
-    [0.0, 1.0, 0.0]
-}
-fn default_vfov() -> f32 {
-    40.0
-}
-
-/// Image and integrator settings (the command line may override size and samples).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(default, deny_unknown_fields)]
-pub struct RenderDesc {
-    pub width: u32,
-    pub height: u32,
-    /// Samples per pixel.
-    pub spp: u32,
-    /// Longest path, in bounces.
-    pub max_depth: u32,
-    /// Radiance of rays that leave the scene, linear RGB.
-    pub background: [f32; 3],
-}
-
-impl Default for RenderDesc {
-    fn default() -> Self {
-        Self {
-            width: 512,
-            height: 512,
-            spp: 16,
-            max_depth: 8,
-            background: [0.0; 3],
-        }
-    }
-}
-
-/// The kinds of surface the renderer knows.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum MaterialKind {
-    /// Lambertian, reflecting `albedo`.
-    Diffuse,
-    /// Perfect specular reflection tinted by `albedo`.
-    Mirror,
-    /// A smooth dielectric of index `ior` (Fresnel-weighted reflection and refraction), tinted
-    /// by `albedo`.
-    Glass,
-    /// A light: emits `emission` (and reflects like `diffuse` with `albedo`).
-    Emissive,
-}
-
-/// A named material; geometry refers to it by name, the [`crate::Geometry`] by its index in
-/// [`SceneFile::materials`].
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct MaterialDesc {
-    pub name: String,
-    pub kind: MaterialKind,
-    /// Reflectance (or tint) in `[0, 1]` per channel; also spelled `color`. Default 0.8 grey.
-    #[serde(default = "default_albedo", alias = "color")]
-    pub albedo: [f32; 3],
-    /// Index of refraction for `glass`; default 1.5.
-    #[serde(default = "default_ior")]
-    pub ior: f32,
-    /// Emitted radiance, linear RGB, `≥ 0`; default black.
-    #[serde(default)]
-    pub emission: [f32; 3],
-}
-
-fn default_albedo() -> [f32; 3] {
-    [0.8; 3]
-}
-fn default_ior() -> f32 {
-    1.5
-}
-
-impl MaterialDesc {
-    /// The core's material for this description.
-    pub fn to_core(&self) -> kdray_core::render::Material {
-        use kdray_core::render::{self, Material};
-        Material {
-            kind: match self.kind {
-                MaterialKind::Diffuse => render::MaterialKind::Diffuse,
-                MaterialKind::Mirror => render::MaterialKind::Mirror,
-                MaterialKind::Glass => render::MaterialKind::Glass,
-                MaterialKind::Emissive => render::MaterialKind::Emissive,
-            },
-            albedo: glam::Vec3::from(self.albedo),
-            emission: glam::Vec3::from(self.emission),
-            ior: self.ior,
-        }
-    }
-
-    /// The material used when a scene declares none: diffuse 0.8 grey, named `default`.
-    pub fn fallback() -> Self {
-        Self {
-            name: "default".into(),
-            kind: MaterialKind::Diffuse,
-            albedo: default_albedo(),
-            ior: default_ior(),
-            emission: [0.0; 3],
-        }
-    }
-}
-
-/// A uniform or per-axis scale factor.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
-#[serde(untagged)]
-pub enum Scale {
-    Uniform(f32),
-    PerAxis([f32; 3]),
-}
-
-/// A mesh file placed in the scene by `p' = translate + Rz·Ry·Rx·(scale ⊙ p)`: scaled first, then
-/// rotated about x, then y, then z (degrees), then translated.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct MeshDesc {
-    /// `.ply`, `.ply.gz`, `.obj` or `.tri`, relative to the scene file's folder.
-    pub path: PathBuf,
-    /// Material name; the first material when omitted.
-    pub material: Option<String>,
-    pub translate: Option<[f32; 3]>,
-    pub scale: Option<Scale>,
-    pub rotate_deg: Option<[f32; 3]>,
-}
-
-/// One triangle given in the scene file.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct TriangleDesc {
-    pub v0: [f32; 3],
-    pub v1: [f32; 3],
-    pub v2: [f32; 3],
-    pub material: Option<String>,
-}
-
-/// A sphere.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SphereDesc {
-    pub center: [f32; 3],
-    /// Finite and `> 0`.
-    pub radius: f32,
-    pub material: Option<String>,
-}
 
 /// The document as written.
 #[derive(Deserialize)]
@@ -251,10 +77,20 @@ pub struct SceneFile {
     pub triangles: Vec<TriangleDesc>,
     pub spheres: Vec<SphereDesc>,
     lines: Lines,
+    /// Meshes held in the binary, by the `path` a `[[mesh]]` gives: used instead of files (the
+    /// built-in default scene's, so that it renders wherever the binary is).
+    embedded: &'static [(&'static str, &'static [u8])],
 }
 
 /// The built-in default scene's text.
 pub const DEFAULT_SCENE_TOML: &str = include_str!("../scenes/default.toml");
+
+/// The meshes the built-in default scene refers to, embedded (the same files lie beside
+/// `host/scenes/default.toml`, so that it also loads as a file).
+const DEFAULT_SCENE_MESHES: &[(&str, &[u8])] = &[(
+    "meshes/bunny.ply.gz",
+    include_bytes!("../scenes/meshes/bunny.ply.gz"),
+)];
 
 /// Reads, parses and validates the scene file at `path` (see [`SceneFile::from_toml_str`]).
 ///
@@ -267,10 +103,23 @@ pub fn load_scene(path: &Path) -> Result<SceneFile> {
 
 impl SceneFile {
     /// The built-in default scene: a Cornell-box-like room of inline triangles with a ceiling
-    /// light, a mirror and a glass sphere; it needs no files.
+    /// light, the Stanford bunny (embedded in the binary), a mirror and a glass sphere; it needs
+    /// no files.
     pub fn default_scene() -> Self {
-        Self::from_toml_str(DEFAULT_SCENE_TOML, Path::new("<built-in default scene>"))
-            .expect("the built-in default scene is valid")
+        let scene = Self::from_toml_str(DEFAULT_SCENE_TOML, Path::new("<built-in default scene>"))
+            .expect("the built-in default scene is valid");
+        Self {
+            embedded: DEFAULT_SCENE_MESHES,
+            ..scene
+        }
+    }
+
+    /// The embedded bytes of the mesh a `[[mesh]]` entry names, if the scene has them.
+    pub(crate) fn embedded_mesh(&self, path: &Path) -> Option<&'static [u8]> {
+        self.embedded
+            .iter()
+            .find(|(name, _)| Path::new(name) == path)
+            .map(|(_, bytes)| *bytes)
     }
 
     /// Parses and validates scene text; `path` names it in errors and anchors mesh paths.
@@ -280,12 +129,21 @@ impl SceneFile {
     /// unknown or duplicate material name; a non-finite number; a radius, scale, field of view,
     /// size or sample count out of range; a camera the core refuses.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Self> {
-        let toml_error = |e: toml::de::Error| match e.span() {
-            Some(span) => {
-                let line = crate::load::line_of_offset(text.as_bytes(), span.start);
-                Error::at_line(path, line, e.message().trim_end())
+        let toml_error = |e: toml::de::Error| {
+            let msg = e.message().trim_end();
+            match e.span() {
+                Some(span) => {
+                    let line = crate::load::line_of_offset(text.as_bytes(), span.start);
+                    let msg = match key_before(text, span.start) {
+                        Some(key) if !msg.contains(&format!("`{key}`")) => {
+                            format!("`{key}`: {msg}")
+                        }
+                        _ => msg.to_string(),
+                    };
+                    Error::at_line(path, line, msg)
+                }
+                None => Error::new(path, msg),
             }
-            None => Error::new(path, e.message().trim_end()),
         };
         let doc: Document = toml::from_str(text).map_err(toml_error)?;
         let spans: Spans = toml::from_str(text).unwrap_or_default();
@@ -312,6 +170,7 @@ impl SceneFile {
             triangles: doc.triangle,
             spheres: doc.sphere,
             lines,
+            embedded: &[],
         };
         scene.validate()?;
         Ok(scene)
@@ -405,7 +264,7 @@ impl SceneFile {
             let line = self.lines.mesh.get(i).copied();
             let what = format!("mesh `{}`", m.path.display());
             material(&m.material, line, &what)?;
-            assemble::transform(m).map_err(|msg| self.error(line, format!("{what}: {msg}")))?;
+            placement::transform(m).map_err(|msg| self.error(line, format!("{what}: {msg}")))?;
         }
         for (i, t) in self.triangles.iter().enumerate() {
             let line = self.lines.triangle.get(i).copied();
@@ -423,4 +282,16 @@ impl SceneFile {
         }
         Ok(())
     }
+}
+
+/// The key of a `key = value` line whose value starts at byte `offset` of `text`: what a TOML
+/// type error is about, which the parser's message (`invalid type: sequence, expected f32`)
+/// does not say.
+fn key_before(text: &str, offset: usize) -> Option<&str> {
+    let head = text.get(..offset)?;
+    let line = &head[head.rfind('\n').map_or(0, |i| i + 1)..];
+    let (key, rest) = line.split_once('=')?;
+    let key = key.trim();
+    let bare = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+    (rest.trim().is_empty() && !key.is_empty() && key.chars().all(bare)).then_some(key)
 }

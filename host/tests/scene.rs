@@ -292,3 +292,106 @@ mod never_panic {
         }
     }
 }
+
+#[test]
+fn lens_cameras_parse_and_build() {
+    let sphere = "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n";
+    let lens = "[camera]\nkind = \"thick_lens\"\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nfocus = 5\n";
+    let s = SceneFile::from_toml_str(&format!("{lens}{sphere}"), Path::new("l.toml")).unwrap();
+    let kdray::scene::SceneCamera::ThickLens(cam) = s.camera().unwrap() else {
+        panic!("not a thick lens: {:?}", s.camera());
+    };
+    // The default lens, focused by the helper.
+    let [r1, r2, l1, l2, ior, a] = kdray::scene::DEFAULT_LENS;
+    assert_eq!(
+        *cam.lens(),
+        kdray_core::camera::LensShape::new(r1, r2, l1, l2, ior, a).unwrap()
+    );
+    assert_eq!(Some(cam.sensor_distance()), cam.lens().sensor_distance(5.0));
+    let placed = lens.replace("focus = 5", "sensor = 0.06\naperture = 0.005\nior = 1.6");
+    let s = SceneFile::from_toml_str(&format!("{placed}{sphere}"), Path::new("l.toml")).unwrap();
+    let kdray::scene::SceneCamera::ThickLens(cam) = s.camera().unwrap() else {
+        panic!("not a thick lens");
+    };
+    assert_eq!(
+        (cam.sensor_distance(), cam.lens().aperture, cam.lens().ior),
+        (0.06, 0.005, 1.6)
+    );
+    let array = "[camera]\nkind = \"lens_array\"\neye = [0, 0, 5]\ntarget = [0, 0, 0]\nsize = [0.1, 0.1]\npitch = [0.01, 0.01]\ngap = 0.02\n";
+    let s = SceneFile::from_toml_str(&format!("{array}{sphere}"), Path::new("a.toml")).unwrap();
+    assert!(matches!(
+        s.camera().unwrap(),
+        kdray::scene::SceneCamera::LensArray(_)
+    ));
+    // Refusals name what is wrong.
+    let t = error_of(
+        &format!("{}{sphere}", lens.replace("focus = 5", "focus = 0.01")),
+        Some(1),
+    );
+    assert!(
+        t.contains("cannot focus at 0.01") && t.contains("focal length"),
+        "{t}"
+    );
+    let t = error_of(
+        &format!("{}{sphere}", lens.replace("focus = 5\n", "")),
+        Some(1),
+    );
+    assert!(t.contains("`focus`") && t.contains("`sensor`"), "{t}");
+    let t = error_of(
+        &format!(
+            "{}{sphere}",
+            lens.replace("focus = 5", "focus = 5\nsensor = 1")
+        ),
+        Some(1),
+    );
+    assert!(t.contains("one of `focus`, `sensor`"), "{t}");
+    let t = error_of(&format!("{}aperture = 0.06\n{sphere}", lens), Some(1));
+    assert!(
+        t.contains("is no lens") && t.contains("aperture = 0.06"),
+        "{t}"
+    );
+    let t = error_of(
+        &format!("{}{sphere}", array.replace("gap = 0.02", "gap = 0")),
+        Some(1),
+    );
+    assert!(t.contains("gap"), "{t}");
+}
+
+/// A key of the wrong type is named, inside `[camera]` (which used to say only `invalid type:
+/// sequence, expected f32`) and elsewhere.
+#[test]
+fn wrong_types_name_the_key() {
+    let sphere = "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n";
+    let parallel = "[camera]\nkind = \"parallel\"\norigin = [0, -1, 0]\nphi = [0, 0, 0]\ntheta = 110\nhorizontal = [-2, 0, 2]\nvertical = [-2, 0, 2]\n";
+    let t = error_of(&format!("{parallel}{sphere}"), Some(1));
+    assert!(
+        t.contains("`phi`: invalid type: sequence, expected f32"),
+        "{t}"
+    );
+    let t = error_of(&format!("{CAMERA}vfov = \"wide\"\n{sphere}"), Some(1));
+    assert!(t.contains("`vfov`: invalid type"), "{t}");
+    let t = error_of(
+        &format!("{CAMERA}{sphere}[render]\nspp = \"many\"\n"),
+        Some(9),
+    );
+    assert!(t.contains("`spp`: invalid type"), "{t}");
+    let t = error_of(&format!("{CAMERA}kind2 = 1\n{sphere}"), Some(1));
+    assert!(
+        t.contains("unknown key `kind2` for a pinhole camera"),
+        "{t}"
+    );
+    let t = error_of(&format!("[camera]\nkind = \"fish\"\n{sphere}"), Some(1));
+    assert!(t.contains("unknown camera kind `fish`"), "{t}");
+}
+
+#[test]
+fn lights_are_one_sided_unless_asked() {
+    let sphere = "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n";
+    let light = "[[material]]\nname = \"l\"\nkind = \"emissive\"\nemission = [1, 1, 1]\n";
+    let s =
+        SceneFile::from_toml_str(&format!("{CAMERA}{light}{sphere}"), Path::new("s.toml")).unwrap();
+    assert!(!s.materials[0].two_sided);
+    let two = format!("{CAMERA}{light}two_sided = true\n{sphere}");
+    let s = SceneFile::from_toml_str(&two, Path::new("s.toml")).unwrap();
+    assert!(s.materials[0].two_sided);
+}

@@ -14,6 +14,7 @@ fn material(kind: MaterialKind, albedo: f32, emission: f32) -> Material {
         albedo: Vec3::splat(albedo),
         emission: Vec3::splat(emission),
         ior: 1.5,
+        two_sided: false,
     }
 }
 
@@ -97,7 +98,10 @@ fn emitting_sphere_furnace_is_exact() {
     let image = render_image(
         &geom,
         &camera,
-        &[material(MaterialKind::Emissive, rho, e)],
+        &[Material {
+            two_sided: true,
+            ..material(MaterialKind::Emissive, rho, e)
+        }],
         &settings(8, 16, depth, 0.0),
     );
     for (i, px) in image.iter().enumerate() {
@@ -167,24 +171,25 @@ fn clear_glass_in_a_uniform_sky_conserves_energy() {
     }
 }
 
-/// Next-event estimation is unbiased: a floor lit by an emitting quad above it renders to the
-/// same mean with the light list as without (plain path tracing, emission counted where paths
-/// land), within the noise of the two estimates.
-#[test]
-fn next_event_estimation_agrees_with_plain_path_tracing() {
+/// The mean of a floor lit by an emitting quad above it (facing up, or down when `down`; emitting
+/// from one side or both), rendered with the light list (next-event estimation) and without it
+/// (plain path tracing, emission counted where paths land).
+fn lamp_over_floor(two_sided: bool, down: bool) -> (Vec3, Vec3) {
     let (mut triangles, mut tri_materials) = floor(1.0, 0.0, 0);
     let (lamp, lamp_materials) = floor(0.3, 1.0, 1);
-    triangles.extend(lamp);
+    let flip = |[a, b, c]: [Vec3; 3]| if down { [a, c, b] } else { [a, b, c] };
+    triangles.extend(lamp.into_iter().map(flip));
     tri_materials.extend(lamp_materials);
     let geom = Geometry {
         triangles,
         tri_materials,
         ..Geometry::default()
     };
-    let materials = [
-        material(MaterialKind::Diffuse, 0.7, 0.0),
-        material(MaterialKind::Emissive, 0.5, 4.0),
-    ];
+    let lamp = Material {
+        two_sided,
+        ..material(MaterialKind::Emissive, 0.5, 4.0)
+    };
+    let materials = [material(MaterialKind::Diffuse, 0.7, 0.0), lamp];
     // Looking down at the floor, the lamp out of view: the image is all reflected light.
     let camera = Pinhole::look_at(Vec3::new(0.0, 0.6, 1.6), Vec3::ZERO, Vec3::Y, 50.0).unwrap();
     let words = scene_words(&geom, 80.0);
@@ -207,13 +212,38 @@ fn next_event_estimation_agrees_with_plain_path_tracing() {
         &[],
         &settings(8, 2048, 4, 0.0),
     ));
+    (with_nee, without)
+}
+
+/// Next-event estimation is unbiased: the same mean with the light list as without, within the
+/// noise of the two estimates (a two-sided lamp facing away from the floor lights it anyway).
+#[test]
+fn next_event_estimation_agrees_with_plain_path_tracing() {
+    let (with_nee, without) = lamp_over_floor(true, false);
     let rel = ((with_nee - without) / without).abs().max_element();
     assert!(with_nee.x > 0.05, "the floor is lit: {with_nee}");
     assert!(rel < 0.03, "with NEE {with_nee}, without {without}");
 }
 
-/// An image does not depend on how its rows are split between calls (threads), and the seed
-/// does change it.
+/// Emission and next-event estimation agree on which side a one-sided light emits from: facing
+/// the floor it lights it as a two-sided lamp does (the floor sees only the side facing it),
+/// facing away it leaves it black under both estimators, not only under one.
+#[test]
+fn one_sided_lights_emit_from_the_front_under_both_estimators() {
+    let (two_nee, two_plain) = lamp_over_floor(true, false);
+    let (down_nee, down_plain) = lamp_over_floor(false, true);
+    for (name, v) in [("with NEE", down_nee), ("without", down_plain)] {
+        let rel = ((v - two_nee) / two_nee).abs().max_element();
+        assert!(
+            rel < 0.03,
+            "facing down, {name}: {v} against two-sided {two_nee} / {two_plain}"
+        );
+    }
+    let (up_nee, up_plain) = lamp_over_floor(false, false);
+    assert_eq!(up_nee, Vec3::ZERO, "facing away, with NEE");
+    assert_eq!(up_plain, Vec3::ZERO, "facing away, without NEE");
+}
+
 #[test]
 fn rows_render_the_same_whatever_the_split() {
     let (triangles, tri_materials) = floor(1.0, 0.0, 0);

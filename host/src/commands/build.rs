@@ -5,7 +5,7 @@ use core::sync::atomic::{AtomicU64, Ordering};
 use indicatif::{ProgressBar, ProgressStyle};
 use kdray::build::{BuildParams, PROGRESS_TOTAL};
 use kdray::error::{Error, Result};
-use kdray::{Geometry, files, flat, load};
+use kdray::{Geometry, files, flat, input, load};
 use kdray_core::Scene;
 use kdray_core::format::contents;
 use std::path::Path;
@@ -123,7 +123,7 @@ pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)
             .unwrap_or(0.0);
         return Ok((words, ms));
     }
-    let geom = load::load_input(path)?;
+    let geom = input::load_input(path)?;
     build_words(path, &geom, &args.params())
 }
 
@@ -141,7 +141,7 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
     };
     let geom = match &file {
         Some(file) => file.geometry()?,
-        None => load::load_input(input)?,
+        None => input::load_input(input)?,
     };
     let (words, build_ms) = build_words(input, &geom, &args.params())?;
     let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;

@@ -89,23 +89,6 @@ pub fn decode_mesh(format: MeshFormat, path: &Path, bytes: &[u8]) -> Result<Geom
     Ok(geometry)
 }
 
-/// Loads any input the `kdray build` and `trace` commands accept: a mesh (see [`load_mesh`]) or a
-/// `.toml` scene file, whose meshes, inline triangles and spheres are assembled by
-/// [`crate::scene::SceneFile::geometry`].
-///
-/// # Errors
-/// As [`load_mesh`] and [`crate::scene::load_scene`].
-pub fn load_input(path: &Path) -> Result<Geometry> {
-    let is_toml = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    if is_toml {
-        crate::scene::load_scene(path)?.geometry()
-    } else {
-        load_mesh(path)
-    }
-}
-
 /// The checks every loader's result must pass: at least one triangle, finite vertices, and
 /// attribute lists as long as the triangle list. Loaders report a finer location first (the
 /// vertex or its line); this is the net under all of them.

@@ -1,73 +1,13 @@
 //! Assembling a scene's [`Geometry`]: meshes loaded and placed, then the inline triangles, then
 //! the spheres, each primitive tagged with its material's index.
 
-use super::{MeshDesc, Scale, SceneFile};
+use super::SceneFile;
+use super::placement::transform;
 use crate::error::Result;
 use crate::geometry::{Geometry, TriNormals, TriUvs};
-use crate::load::load_mesh;
-use glam::{Mat3, Vec2, Vec3};
+use crate::load::{MeshFormat, decode_mesh, load_mesh};
+use glam::{Vec2, Vec3};
 use std::path::Path;
-
-/// A mesh's placement: `p' = linear·p + translate`; normals go through `normal` (the inverse
-/// transpose of `linear`) and are renormalized.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Transform {
-    linear: Mat3,
-    normal: Mat3,
-    translate: Vec3,
-}
-
-/// The transform a mesh entry asks for, `None` when it gives none (the mesh is used verbatim).
-///
-/// # Errors
-/// Non-finite values or a zero scale factor, as a message.
-pub(super) fn transform(m: &MeshDesc) -> core::result::Result<Option<Transform>, String> {
-    if m.translate.is_none() && m.scale.is_none() && m.rotate_deg.is_none() {
-        return Ok(None);
-    }
-    let scale = match m.scale {
-        None => Vec3::ONE,
-        Some(Scale::Uniform(s)) => Vec3::splat(s),
-        Some(Scale::PerAxis(s)) => Vec3::from(s),
-    };
-    let translate = Vec3::from(m.translate.unwrap_or_default());
-    let rotate = Vec3::from(m.rotate_deg.unwrap_or_default());
-    if !(scale.is_finite() && translate.is_finite() && rotate.is_finite()) {
-        return Err("translate, scale and rotate_deg must be finite".into());
-    }
-    if scale.cmpeq(Vec3::ZERO).any() {
-        return Err("scale factors must not be 0".into());
-    }
-    let r = rotate * (core::f32::consts::PI / 180.0);
-    let linear = Mat3::from_rotation_z(r.z)
-        * Mat3::from_rotation_y(r.y)
-        * Mat3::from_rotation_x(r.x)
-        * Mat3::from_diagonal(scale);
-    // Rotation is orthonormal, so (R·S)^-T = R·S^-1 exactly; no general inverse needed.
-    let normal = Mat3::from_rotation_z(r.z)
-        * Mat3::from_rotation_y(r.y)
-        * Mat3::from_rotation_x(r.x)
-        * Mat3::from_diagonal(scale.recip());
-    if !(linear.is_finite() && normal.is_finite()) {
-        return Err("the scale is too small or too large to invert".into());
-    }
-    Ok(Some(Transform {
-        linear,
-        normal,
-        translate,
-    }))
-}
-
-impl Transform {
-    fn apply(&self, g: &mut Geometry) {
-        for v in g.triangles.iter_mut().flatten() {
-            *v = self.linear * *v + self.translate;
-        }
-        for n in g.normals.iter_mut().flatten().flatten() {
-            *n = (self.normal * *n).normalize_or_zero();
-        }
-    }
-}
 
 /// The unit normal of a triangle's plane by its winding (zero when degenerate): what a triangle
 /// without vertex normals is shaded with, when other triangles of the scene have them.
@@ -128,12 +68,20 @@ impl SceneFile {
         for (i, m) in self.meshes.iter().enumerate() {
             let line = self.lines.mesh.get(i).copied();
             let index = material(m.material.as_deref(), line)?;
-            let file = base.join(&m.path);
-            if let Err(e) = std::fs::metadata(&file) {
-                let msg = format!("mesh `{}` ({}): {e}", m.path.display(), file.display());
-                return Err(self.error(line, msg));
-            }
-            let mut part = load_mesh(&file)?;
+            let mut part = match self.embedded_mesh(&m.path) {
+                Some(bytes) => {
+                    let format = MeshFormat::from_path(&m.path).unwrap_or(MeshFormat::Ply);
+                    decode_mesh(format, &m.path, bytes)?
+                }
+                None => {
+                    let file = base.join(&m.path);
+                    if let Err(e) = std::fs::metadata(&file) {
+                        let msg = format!("mesh `{}` ({}): {e}", m.path.display(), file.display());
+                        return Err(self.error(line, msg));
+                    }
+                    load_mesh(&file)?
+                }
+            };
             let placement = transform(m).map_err(|msg| self.error(line, msg))?;
             if let Some(t) = placement {
                 t.apply(&mut part);
@@ -170,79 +118,6 @@ impl SceneFile {
 mod tests {
     use super::*;
     use std::path::PathBuf;
-
-    fn mesh(
-        scale: Option<Scale>,
-        rotate_deg: Option<[f32; 3]>,
-        translate: Option<[f32; 3]>,
-    ) -> MeshDesc {
-        MeshDesc {
-            path: PathBuf::from("m.tri"),
-            material: None,
-            translate,
-            scale,
-            rotate_deg,
-        }
-    }
-
-    #[test]
-    fn no_transform_is_none() {
-        assert_eq!(transform(&mesh(None, None, None)), Ok(None));
-    }
-
-    #[test]
-    fn order_is_scale_then_x_y_z_then_translate() {
-        // Scale x by 2, rotate 90° about z: x → y; then translate.
-        let t = transform(&mesh(
-            Some(Scale::PerAxis([2.0, 1.0, 1.0])),
-            Some([0.0, 0.0, 90.0]),
-            Some([0.0, 0.0, 5.0]),
-        ))
-        .unwrap()
-        .unwrap();
-        let p = t.linear * Vec3::X + t.translate;
-        assert!((p - Vec3::new(0.0, 2.0, 5.0)).length() < 1e-6, "{p}");
-        // Rotating about x first, then y: z → -y (about x by 90°) → -y (y-rotation keeps y).
-        let t = transform(&mesh(None, Some([90.0, 90.0, 0.0]), None))
-            .unwrap()
-            .unwrap();
-        let p = t.linear * Vec3::Z;
-        assert!((p - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-6, "{p}");
-    }
-
-    #[test]
-    fn normals_use_the_inverse_transpose() {
-        // A plane x + y = 0 squashed along x: its normal (1,1,0)/√2 becomes ∝ (1/s, 1, 0).
-        let t = transform(&mesh(Some(Scale::PerAxis([0.5, 1.0, 1.0])), None, None))
-            .unwrap()
-            .unwrap();
-        let mut g = Geometry {
-            triangles: vec![[
-                Vec3::new(1.0, -1.0, 0.0),
-                Vec3::new(1.0, -1.0, 1.0),
-                Vec3::new(-1.0, 1.0, 0.0),
-            ]],
-            normals: Some(vec![[Vec3::new(1.0, 1.0, 0.0).normalize(); 3]]),
-            ..Geometry::default()
-        };
-        t.apply(&mut g);
-        let n = g.normals.unwrap()[0][0];
-        let edge = g.triangles[0][2] - g.triangles[0][0];
-        assert!(
-            n.dot(edge).abs() < 1e-6,
-            "normal {n} not perpendicular to {edge}"
-        );
-        assert!((n.length() - 1.0).abs() < 1e-6);
-    }
-
-    #[test]
-    fn zero_or_non_finite_transforms_are_refused() {
-        assert!(transform(&mesh(Some(Scale::Uniform(0.0)), None, None)).is_err());
-        assert!(transform(&mesh(Some(Scale::PerAxis([1.0, 0.0, 1.0])), None, None)).is_err());
-        assert!(transform(&mesh(None, Some([f32::NAN, 0.0, 0.0]), None)).is_err());
-        assert!(transform(&mesh(None, None, Some([f32::INFINITY, 0.0, 0.0]))).is_err());
-        assert!(transform(&mesh(Some(Scale::Uniform(1e-39)), None, None)).is_err());
-    }
 
     #[test]
     fn append_fills_missing_attributes() {

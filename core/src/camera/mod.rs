@@ -2,21 +2,93 @@
 //!
 //! Image coordinates are continuous: pixel `(i, j)` covers `[i, i+1) × [j, j+1)`, its centre is
 //! `(i + 0.5, j + 0.5)`, `i` runs left to right and `j` top to bottom. [`Camera::pixel_ray`] gives
-//! the centre's ray; a renderer jitters inside the pixel with [`Camera::ray`].
+//! the centre's ray; a renderer jitters inside the pixel and calls [`Camera::sample`], which a
+//! camera with an aperture ([`ThickLens`]) overrides to pick a point on its lens.
+//!
+//! Kinds: [`Pinhole`]; the seed's [`Fisheye`] (§3.2) and [`Parallel`] (§3.3); the seed's lenses,
+//! [`ThickLens`] ("Rays from a thin lens", `thick_lens.rs`) and [`LensArray`] ("lens array",
+//! `lens_array.rs`).
+
+mod lens_array;
+mod thick_lens;
+
+pub use lens_array::LensArray;
+pub use thick_lens::{LensShape, ThickLens};
 
 use crate::math;
 use crate::ray::Ray;
+use crate::sampling::Pcg32;
 use glam::Vec3;
 
 /// Anything that maps an image point to a ray.
 pub trait Camera {
-    /// The ray through the continuous image point `(x, y)` of a `width × height` image.
+    /// The ray through the continuous image point `(x, y)` of a `width × height` image (for a
+    /// camera with an aperture, its chief ray: the one through the aperture's centre).
     fn ray(&self, x: f32, y: f32, width: u32, height: u32) -> Ray;
 
     /// The ray through the centre of pixel `(i, j)`.
     #[inline]
     fn pixel_ray(&self, i: u32, j: u32, width: u32, height: u32) -> Ray {
         self.ray(i as f32 + 0.5, j as f32 + 0.5, width, height)
+    }
+
+    /// One sample of the image point `(x, y)`: a ray and the weight its radiance counts with, or
+    /// `None` when the sample carries no light (a lens dropped it: a sample of zero). A camera with
+    /// an aperture draws its lens point from `rng`; the default is [`Camera::ray`] with weight 1
+    /// and draws nothing, so a pinhole's image does not depend on this method.
+    #[inline]
+    fn sample(
+        &self,
+        x: f32,
+        y: f32,
+        width: u32,
+        height: u32,
+        rng: &mut Pcg32,
+    ) -> Option<(Ray, f32)> {
+        let _ = rng;
+        Some((self.ray(x, y, width, height), 1.0))
+    }
+}
+
+/// Where a camera stands and how it is turned: a right-handed frame, `forward` the viewing
+/// direction, `right` the image's left-to-right and `up` its bottom-to-top direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub eye: Vec3,
+    pub forward: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+}
+
+impl Frame {
+    /// Looking from `eye` at `target`, `up` giving the image's up direction.
+    ///
+    /// # Errors
+    /// [`CameraError::Degenerate`] for a non-finite `eye`, `eye == target` or `up` parallel to the
+    /// view direction.
+    pub fn look_at(eye: Vec3, target: Vec3, up: Vec3) -> Result<Self, CameraError> {
+        let forward = (target - eye)
+            .try_normalize()
+            .ok_or(CameraError::Degenerate)?;
+        let right = forward
+            .cross(up)
+            .try_normalize()
+            .ok_or(CameraError::Degenerate)?;
+        if !eye.is_finite() {
+            return Err(CameraError::Degenerate);
+        }
+        Ok(Self {
+            eye,
+            forward,
+            right,
+            up: right.cross(forward),
+        })
+    }
+
+    /// The local vector `(x, y, z)` (right, up, forward) in world space.
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        v.x * self.right + v.y * self.up + v.z * self.forward
     }
 }
 
@@ -27,6 +99,10 @@ pub enum CameraError {
     MiddleNotMidpoint,
     /// A non-finite value, or a zero-length / parallel set of pinhole vectors.
     Degenerate,
+    /// A lens that cannot be built: see [`LensShape::new`].
+    BadLens,
+    /// A focus distance the lens cannot focus at (not farther than its focal length).
+    CannotFocus,
 }
 
 /// An angle or offset range given as the seed's `{start, middle, end}`: pixel centres are spaced
@@ -76,10 +152,7 @@ pub fn spherical_dir(phi_deg: f32, theta_deg: f32) -> Vec3 {
 /// A pinhole perspective camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pinhole {
-    eye: Vec3,
-    forward: Vec3,
-    right: Vec3,
-    up: Vec3,
+    frame: Frame,
     tan_half_vfov: f32,
 }
 
@@ -87,32 +160,25 @@ impl Pinhole {
     /// Looking from `eye` at `target`, `up` giving the image's up direction, `vfov_deg` the
     /// vertical field of view in degrees (in `(0, 180)`).
     pub fn look_at(eye: Vec3, target: Vec3, up: Vec3, vfov_deg: f32) -> Result<Self, CameraError> {
-        let forward = (target - eye)
-            .try_normalize()
-            .ok_or(CameraError::Degenerate)?;
-        let right = forward
-            .cross(up)
-            .try_normalize()
-            .ok_or(CameraError::Degenerate)?;
-        if !(eye.is_finite() && vfov_deg > 0.0 && vfov_deg < 180.0) {
-            return Err(CameraError::Degenerate);
-        }
-        let up = right.cross(forward);
-        let tan_half_vfov =
-            math::sin(math::radians(0.5 * vfov_deg)) / math::cos(math::radians(0.5 * vfov_deg));
+        let frame = Frame::look_at(eye, target, up)?;
         Ok(Self {
-            eye,
-            forward,
-            right,
-            up,
-            tan_half_vfov,
+            frame,
+            tan_half_vfov: tan_half_angle(vfov_deg)?,
         })
     }
 
     /// The eye point.
     pub fn eye(&self) -> Vec3 {
-        self.eye
+        self.frame.eye
     }
+}
+
+/// `tan(fov/2)` of a field of view in degrees, which must lie in `(0, 180)`.
+fn tan_half_angle(fov_deg: f32) -> Result<f32, CameraError> {
+    if !(fov_deg > 0.0 && fov_deg < 180.0) {
+        return Err(CameraError::Degenerate);
+    }
+    Ok(math::sin(math::radians(0.5 * fov_deg)) / math::cos(math::radians(0.5 * fov_deg)))
 }
 
 impl Camera for Pinhole {
@@ -121,8 +187,9 @@ impl Camera for Pinhole {
         let (w, h) = (width.max(1) as f32, height.max(1) as f32);
         let sx = (2.0 * x / w - 1.0) * self.tan_half_vfov * (w / h);
         let sy = (1.0 - 2.0 * y / h) * self.tan_half_vfov;
-        let dir = (self.forward + sx * self.right + sy * self.up).normalize();
-        Ray::new(self.eye, dir)
+        let f = &self.frame;
+        let dir = (f.forward + sx * f.right + sy * f.up).normalize();
+        Ray::new(f.eye, dir)
     }
 }
 
