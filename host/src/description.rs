@@ -99,7 +99,9 @@ fn camera_words(camera: &CameraDesc) -> (u32, Vec<u32>) {
                 Ok(AnyCamera::ThickLens(c)) => c.sensor_distance(),
                 _ => f32::NAN,
             };
-            let tail = [*vfov, lens[0], lens[1], lens[2], lens[3], lens[4], lens[5], sensor];
+            let tail = [
+                *vfov, lens[0], lens[1], lens[2], lens[3], lens[4], lens[5], sensor,
+            ];
             (
                 camera_kind::THICK_LENS,
                 [&eye[..], target, up, &tail].concat(),

@@ -43,7 +43,12 @@ fn every_example_scene_renders() {
         }
         let png = out_dir.join(path.with_extension("png").file_name().unwrap());
         let out = Command::new(env!("CARGO_BIN_EXE_kdray"))
-            .args(["render", path.to_str().unwrap(), "-o", png.to_str().unwrap()])
+            .args([
+                "render",
+                path.to_str().unwrap(),
+                "-o",
+                png.to_str().unwrap(),
+            ])
             .args(["--size", "24x16", "--spp", "2"])
             .output()
             .unwrap();
@@ -71,7 +76,10 @@ fn the_docs_name_only_scenes_that_exist_and_print_them_as_they_are() {
                 .collect();
             let name = name.trim_end_matches('.');
             if name.ends_with(".toml") {
-                assert!(root().join(name).exists(), "{doc} names {name}, which is missing");
+                assert!(
+                    root().join(name).exists(),
+                    "{doc} names {name}, which is missing"
+                );
             }
         }
     }

@@ -51,16 +51,28 @@ fn default_scene_is_complete() {
     assert_eq!(s.materials.len(), 6);
     assert_eq!(s.materials[3].kind, MaterialKind::Emissive);
     let g = s.geometry().unwrap();
-    assert_eq!((g.triangles.len(), g.spheres.len()), (12, 2));
-    assert_eq!(g.tri_materials.len(), 12);
+    // The bunny (embedded: the built-in scene needs no files), then the room's 12 triangles.
+    let bunny = 3674;
+    assert_eq!((g.triangles.len(), g.spheres.len()), (bunny + 12, 2));
+    assert_eq!(g.tri_materials.len(), bunny + 12);
     assert_eq!(g.sphere_materials, vec![4, 5]);
     assert_eq!((g.normals, g.uvs), (None, None));
-    // Every wall faces the room's centre.
+    for t in &g.triangles[..bunny] {
+        for v in t {
+            let inside = v.x.abs() < 1.0 && v.z.abs() < 1.0 && (-1e-3..2.0).contains(&v.y);
+            assert!(inside, "the bunny leaves the room at {v}");
+        }
+    }
+    // Every wall faces the room's centre; the light faces down, the one side it emits from.
     let centre = Vec3::new(0.0, 1.0, 0.0);
-    for t in &g.triangles {
+    for (t, m) in g.triangles.iter().zip(&g.tri_materials).skip(bunny) {
         let n = (t[1] - t[0]).cross(t[2] - t[0]);
         assert!(n.dot(centre - t[0]) > 0.0, "{t:?} faces away");
+        if *m == 3 {
+            assert!(n.y < 0.0 && n.x == 0.0 && n.z == 0.0, "the light faces {n}");
+        }
     }
+    assert!(!s.materials[3].two_sided);
     // The centre pixel looks down -z.
     let cam = s.camera().unwrap();
     let ray = cam.pixel_ray(256, 256, 512, 512);
@@ -157,7 +169,7 @@ fn the_example_in_the_docs_is_valid() {
         SceneFile::from_toml_str(&doc[start..start + len], Path::new("docs/example.toml")).unwrap();
     assert_eq!(
         (s.meshes.len(), s.triangles.len(), s.spheres.len()),
-        (1, 3, 1)
+        (1, 4, 1)
     );
     assert_eq!(s.render.background, [0.05, 0.05, 0.08]);
 }

@@ -11,6 +11,7 @@ use kdray_core::description::{
     AnyCamera, DescError, Description, MAX_MATERIALS, camera_kind, header,
 };
 use kdray_core::render::{self, Bounces, Material};
+use kdray_core::sampling::Pcg32;
 use kdray_core::words::{self, Aligned, WordsError};
 use kdray_tests::strategies::scene_words;
 use std::path::Path;
@@ -73,12 +74,31 @@ phi = 90
 theta = 180
 horizontal = [-1, 0, 1]
 vertical = [-1, 0, 1]"#,
+        r#"kind = "thick_lens"
+eye = [0, 1, 3]
+target = [0, 1, 0]
+vfov = 30
+aperture = 0.02
+focus = 3"#,
+        r#"kind = "lens_array"
+eye = [0, 1, 3]
+target = [0, 1, 0]
+size = [0.4, 0.4]
+pitch = [0.05, 0.05]
+gap = 0.05"#,
     ];
-    for (camera, kind) in cameras
-        .iter()
-        .zip([camera_kind::FISHEYE, camera_kind::PARALLEL])
-    {
-        let text = format!("[camera]\n{camera}\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n");
+    let kinds = [
+        camera_kind::FISHEYE,
+        camera_kind::PARALLEL,
+        camera_kind::THICK_LENS,
+        camera_kind::LENS_ARRAY,
+    ];
+    // A two-sided light, whose flag travels in the material's kind word.
+    let light =
+        "[[material]]\nname = \"l\"\nkind = \"emissive\"\nemission = [1, 1, 1]\ntwo_sided = true\n";
+    for (camera, kind) in cameras.iter().zip(kinds) {
+        let text =
+            format!("[camera]\n{camera}\n{light}[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n");
         let file = SceneFile::from_toml_str(&text, Path::new("cam.toml")).unwrap();
         let words = scene_words(&file.geometry().unwrap(), 80.0);
         let scene = Scene::from_words(&words).unwrap();
@@ -90,7 +110,17 @@ vertical = [-1, 0, 1]"#,
         let host = file.camera().unwrap();
         for (x, y) in [(0.5, 0.5), (10.25, 3.75), (511.5, 511.5)] {
             assert_eq!(any.ray(x, y, 512, 512), host.ray(x, y, 512, 512));
+            // The same lens points from the same random numbers.
+            let (mut a, mut b) = (Pcg32::new(3, 4), Pcg32::new(3, 4));
+            let sample = any.sample(x, y, 512, 512, &mut a);
+            assert_eq!(sample, host.sample(x, y, 512, 512, &mut b));
+            assert!(
+                sample.is_some(),
+                "{kind}: the sample at ({x}, {y}) is dropped"
+            );
         }
+        assert!(d.materials()[0].two_sided);
+        assert_eq!(d.materials()[0], file.materials[0].to_core());
         assert_eq!(d.camera::<Pinhole>(), Err(DescError::WrongCamera { kind }));
     }
 }

@@ -117,7 +117,6 @@ impl SceneFile {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::path::PathBuf;
 
     #[test]
     fn append_fills_missing_attributes() {
