@@ -17,6 +17,7 @@ fn material(kind: MaterialKind, albedo: f32, emission: f32) -> Material {
         albedo: Vec3::splat(albedo),
         emission: Vec3::splat(emission),
         ior: 1.5,
+        two_sided: false,
     }
 }
 
@@ -27,10 +28,11 @@ fn room() -> (Geometry, Vec<Material>) {
         triangles: vec![
             [p(-3.0, -3.0), p(-3.0, 3.0), p(3.0, 3.0)],
             [p(-3.0, -3.0), p(3.0, 3.0), p(3.0, -3.0)],
+            // The lamp, facing down at the floor (lights are one-sided).
             [
                 Vec3::new(-0.3, 1.5, -0.3),
-                Vec3::new(0.0, 1.5, 0.3),
                 Vec3::new(0.3, 1.5, -0.3),
+                Vec3::new(0.0, 1.5, 0.3),
             ],
         ],
         tri_materials: vec![0, 0, 2],
