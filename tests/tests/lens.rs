@@ -14,6 +14,15 @@ fn frame() -> Frame {
     Frame::look_at(Vec3::ZERO, Vec3::Z, Vec3::Y).unwrap()
 }
 
+/// The centres of an `n × n` grid of cells over `[−a, a]²` that lie inside the disk of radius `a`:
+/// lens points spread evenly over the aperture.
+fn disk_grid(a: f32, n: usize) -> impl Iterator<Item = [f32; 2]> {
+    let at = move |k: usize| a * (2.0 * (k as f32 + 0.5) / n as f32 - 1.0);
+    (0..n * n)
+        .map(move |k| [at(k / n), at(k % n)])
+        .filter(move |p| p[0] * p[0] + p[1] * p[1] <= a * a)
+}
+
 /// A biconvex lens: R1 = R2 = 0.1, 1 cm thick, n = 1.5, aperture radius `a` (f ≈ 0.1).
 fn lens(a: f32) -> LensShape {
     LensShape::new(0.1, 0.1, 0.005, 0.005, 1.5, a).unwrap()
@@ -100,20 +109,12 @@ fn best_focus(a: f32) -> (f32, f32, f32) {
     let l = lens(a);
     let focus = 2.0f32;
     let cam = ThickLens::focused(frame(), l, focus, 20.0).unwrap();
-    let mut rays = Vec::new();
     let n = 24;
-    for i in 0..n {
-        for j in 0..n {
-            let (x, y) = (
-                a * (2.0 * (i as f32 + 0.5) / n as f32 - 1.0),
-                a * (2.0 * (j as f32 + 0.5) / n as f32 - 1.0),
-            );
-            if let Some((ray, _)) = cam.ray_through(32.0, 32.0, 64, 64, [x, y]) {
-                rays.push(ray);
-            }
-        }
-    }
-    assert!(rays.len() > n * n / 2, "most of the grid is inside the rim");
+    let rays: Vec<_> = disk_grid(a, n)
+        .filter_map(|p| cam.ray_through(32.0, 32.0, 64, 64, p))
+        .map(|(ray, _)| ray)
+        .collect();
+    assert!(rays.len() > n * n / 2, "most of the aperture passes");
     // The RMS distance from the axis where the rays cross the plane z.
     let spread = |z: f32| {
         let sum: f32 = rays
@@ -173,20 +174,9 @@ fn rays_past_the_rim_are_dropped() {
     // surface outside its rim (mechanical vignetting): much of the aperture is lost there, and a
     // thin ring of it at the centre (the rays still diverge inside the glass).
     let kept = |x: f32, y: f32| {
-        let n = 40;
-        let mut k = 0;
-        for i in 0..n {
-            for j in 0..n {
-                let p = [
-                    a * (2.0 * (i as f32 + 0.5) / n as f32 - 1.0),
-                    a * (2.0 * (j as f32 + 0.5) / n as f32 - 1.0),
-                ];
-                if p[0] * p[0] + p[1] * p[1] <= a * a {
-                    k += usize::from(cam.ray_through(x, y, 64, 64, p).is_some());
-                }
-            }
-        }
-        k
+        disk_grid(a, 40)
+            .filter(|&p| cam.ray_through(x, y, 64, 64, p).is_some())
+            .count()
     };
     let (centre, corner) = (kept(32.0, 32.0), kept(0.5, 0.5));
     assert!(corner < centre * 9 / 10, "corner {corner}, centre {centre}");
@@ -208,24 +198,15 @@ fn the_weight_is_the_normalized_irradiance() {
         f64::from(a),
         f64::from(l.r1),
     );
-    let n = 400;
-    let (mut sum, mut count) = (0.0f64, 0);
-    for i in 0..n {
-        for j in 0..n {
-            let p = [
-                a * (2.0 * (i as f32 + 0.5) / n as f32 - 1.0),
-                a * (2.0 * (j as f32 + 0.5) / n as f32 - 1.0),
-            ];
-            if p[0] * p[0] + p[1] * p[1] <= a * a {
-                let (_, w) = cam
-                    .ray_through(8.0, 8.0, 16, 16, p)
-                    .expect("no ray dropped");
-                sum += f64::from(w);
-                count += 1;
-            }
-        }
-    }
-    let mean = sum / f64::from(count);
+    let weights: Vec<f64> = disk_grid(a, 400)
+        .map(|p| {
+            let (_, w) = cam
+                .ray_through(8.0, 8.0, 16, 16, p)
+                .expect("no ray dropped");
+            f64::from(w)
+        })
+        .collect();
+    let mean = weights.iter().sum::<f64>() / weights.len() as f64;
     let sag = r1 - (r1 * r1 - a64 * a64).sqrt();
     let alpha = (a64 / (s + sag)).atan();
     let expect = alpha.sin().powi(2) * s * s / (a64 * a64);
