@@ -16,9 +16,31 @@ use kdray_core::words::{self, Aligned, WordsError};
 use kdray_tests::strategies::scene_words;
 use std::path::Path;
 
-/// The default scene built, and its description.
-fn default_scene() -> (SceneFile, Vec<u32>, Vec<u32>) {
-    let file = SceneFile::default_scene();
+/// A small room of inline triangles with a mirror and a glass ball (six materials, a two-triangle
+/// ceiling light, 512×512 at 64 spp, a pinhole): the firmware's triangles-only scene with the
+/// balls of the first default scene, small enough to parse hundreds of times in a debug test.
+const ROOM: &str = concat!(
+    include_str!("../../targets/cortex-m4f/scenes/triangles.toml"),
+    "
+[[sphere]]
+center = [-0.45, 0.35, -0.3]
+radius = 0.35
+material = \"mirror\"
+
+[[sphere]]
+center = [0.45, 0.35, 0.25]
+radius = 0.35
+material = \"glass\"
+"
+);
+
+fn room_file() -> SceneFile {
+    SceneFile::from_toml_str(ROOM, Path::new("room.toml")).unwrap()
+}
+
+/// The room built, and its description.
+fn room() -> (SceneFile, Vec<u32>, Vec<u32>) {
+    let file = room_file();
     let words = scene_words(&file.geometry().unwrap(), 80.0);
     let desc = kdray::description::encode(&file, &words, 1).unwrap();
     (file, words, desc)
@@ -26,7 +48,7 @@ fn default_scene() -> (SceneFile, Vec<u32>, Vec<u32>) {
 
 #[test]
 fn a_scene_files_description_round_trips() {
-    let (file, words, desc) = default_scene();
+    let (file, words, desc) = room();
     let scene = Scene::from_words(&words).unwrap();
     let d = Description::from_words(&desc, &scene, &words).unwrap();
     let s = d.settings();
@@ -36,7 +58,7 @@ fn a_scene_files_description_round_trips() {
     assert_eq!((s.background, s.seed), (Vec3::ZERO, 1));
     let materials: Vec<Material> = file.materials.iter().map(|m| m.to_core()).collect();
     assert_eq!(d.materials(), &materials[..]);
-    // The default scene's only emitter is the two-triangle ceiling light.
+    // The room's only emitter is the two-triangle ceiling light.
     assert_eq!(d.lights().len(), 2);
     let mut lights = [0; 8];
     assert_eq!(render::emitters(&scene, &materials, &mut lights), 2);
@@ -48,7 +70,7 @@ fn a_scene_files_description_round_trips() {
         vfov,
     } = file.camera
     else {
-        panic!("the default scene has a pinhole camera");
+        panic!("the room has a pinhole camera");
     };
     let pinhole = Pinhole::look_at(eye.into(), target.into(), up.into(), vfov).unwrap();
     assert_eq!(d.camera::<Pinhole>(), Ok(pinhole));
@@ -127,7 +149,7 @@ gap = 0.05"#,
 
 #[test]
 fn rendering_through_the_description_is_rendering_the_scene_file() {
-    let (file, words, desc) = default_scene();
+    let (file, words, desc) = room();
     let scene = Scene::from_words(&words).unwrap();
     let d = Description::from_words(&desc, &scene, &words).unwrap();
     let mut settings = d.settings();
@@ -168,7 +190,7 @@ fn rendering_through_the_description_is_rendering_the_scene_file() {
 
 #[test]
 fn header_corruption_is_named() {
-    let (_, words, desc) = default_scene();
+    let (_, words, desc) = room();
     let scene = Scene::from_words(&words).unwrap();
     let parse = |d: &[u32]| Description::from_words(d, &scene, &words).map(|_| ());
     let with = |i: usize, v: u32| {
@@ -225,7 +247,7 @@ fn header_corruption_is_named() {
 
 #[test]
 fn materials_and_lights_are_checked_against_the_scene() {
-    let (_, words, desc) = default_scene();
+    let (_, words, desc) = room();
     let scene = Scene::from_words(&words).unwrap();
     let parse = |d: &[u32]| Description::from_words(d, &scene, &words).map(|_| ());
     let n_camera = desc[header::CAMERA_WORDS] as usize;
@@ -236,7 +258,7 @@ fn materials_and_lights_are_checked_against_the_scene() {
         d[i] = v;
         d
     };
-    assert_eq!(desc[count_at], 6, "the default scene's six materials");
+    assert_eq!(desc[count_at], 6, "the room's six materials");
     assert_eq!(
         parse(&with(first, 4)),
         Err(DescError::BadMaterial { index: 0 })
@@ -297,7 +319,7 @@ fn materials_and_lights_are_checked_against_the_scene() {
 
 #[test]
 fn no_truncation_or_word_flip_panics() {
-    let (_, words, desc) = default_scene();
+    let (_, words, desc) = room();
     let scene = Scene::from_words(&words).unwrap();
     for n in 0..desc.len() {
         assert!(Description::from_words(&desc[..n], &scene, &words).is_err());
@@ -322,7 +344,7 @@ fn no_truncation_or_word_flip_panics() {
 
 #[test]
 fn a_description_is_refused_for_another_scene() {
-    let (_, words, desc) = default_scene();
+    let (_, words, desc) = room();
     let text = "[camera]\nkind = \"pinhole\"\neye = [0, 0, 5]\ntarget = [0, 0, 0]\n\
                 [[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n";
     let file = SceneFile::from_toml_str(text, Path::new("ball.toml")).unwrap();
@@ -343,7 +365,7 @@ fn a_description_is_refused_for_another_scene() {
 
 #[test]
 fn the_framing_description_looks_at_the_scene() {
-    let (_, words, _) = default_scene();
+    let (_, words, _) = room();
     let scene = Scene::from_words(&words).unwrap();
     let d = Description::framing(&scene);
     assert!(d.materials().is_empty() && d.lights().is_empty());
@@ -392,8 +414,8 @@ fn srgb_transfer_hits_its_anchor_points() {
 #[test]
 fn the_kernel_a_target_names_renders_what_render_rows_does() {
     use kdray_core::traverse::{Mixed, Spheres, Triangles};
-    // The default room without its spheres: triangles only.
-    let mut file = SceneFile::default_scene();
+    // The room without its balls: triangles only.
+    let mut file = room_file();
     file.spheres.clear();
     let words = scene_words(&file.geometry().unwrap(), 80.0);
     let scene = Scene::from_words(&words).unwrap();
@@ -419,7 +441,7 @@ fn the_kernel_a_target_names_renders_what_render_rows_does() {
     }
     assert!(render::kernel_fits::<Triangles>(&scene) && render::kernel_fits::<Mixed>(&scene));
     assert!(!render::kernel_fits::<Spheres>(&scene));
-    let (_, room_words, _) = default_scene();
+    let (_, room_words, _) = room();
     let room = Scene::from_words(&room_words).unwrap();
     assert!(!render::kernel_fits::<Triangles>(&room) && render::kernel_fits::<Mixed>(&room));
     assert!(images[0].iter().flatten().any(|&c| c > 0.0));
