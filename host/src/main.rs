@@ -22,6 +22,9 @@ struct Cli {
 enum Command {
     /// Path-trace a scene (.toml; without one, the built-in default scene) into a PNG or EXR
     Render(commands::RenderArgs),
+    /// Measure error against run time: RMSE at doubling sample counts against an analytic (the
+    /// built-in white furnace) or a long reference render; a CSV, a log-log plot and the slope.
+    Converge(commands::ConvergeArgs),
     /// Assemble the row bands written by `render --tile K/N` into one image (.png or .exr).
     Merge {
         /// The bands (.exr), in any order; together they must cover every row exactly once.
@@ -67,6 +70,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => commands::render(&args),
+        Command::Converge(args) => commands::converge(&args),
         Command::Merge { parts, out } => commands::merge(&parts, &out),
         Command::Build {
             input,

@@ -1,7 +1,7 @@
 //! Progressive rendering: the image is rendered in passes of a few samples per pixel, kept as
 //! per-pixel running sums (a [`Film`]), until a stopping rule ([`Stop`]) is met: a sample count, a
-//! time budget, or an estimated noise level. Adaptive sampling ([`Plan::adaptive`]) spends each
-//! pass's samples where the per-pixel variance says they lower the image's error most.
+//! time budget, or an estimated noise level. Adaptive sampling ([`Plan::adaptive`]) spends every
+//! other pass's samples where the per-pixel variance says they lower the image's error most.
 //!
 //! Noise estimate: each pixel keeps the sum and the sum of squares of its sample radiances, so
 //! its sample variance `s²` is known and the variance of its mean is `s²/n` (the squared standard
@@ -41,7 +41,7 @@ pub struct Stop {
 pub struct Plan {
     pub rows: Range<u32>,
     pub stop: Stop,
-    /// Spend each pass's samples where the variance is (see [`adaptive_counts`]).
+    /// Spend every other pass's samples where the variance is (see [`adaptive_counts`]).
     pub adaptive: bool,
 }
 
@@ -169,11 +169,14 @@ pub fn render<C: Camera + Sync>(
                 break;
             }
         }
-        // Uniform passes give every pixel PASS samples (fewer in a last, partial pass); an
-        // adaptive pass hands out the same total where it helps, after two uniform passes.
+        // Uniform passes give every pixel PASS samples (fewer in a last, partial pass); with
+        // adaptive sampling, after two uniform passes every other pass hands out the same total
+        // where the variance is. The uniform passes in between keep every pixel at half the
+        // samples at least, so that a pixel whose first samples happened to agree is not starved
+        // (the first version, all passes adaptive, was measured worse: README).
         let uniform = (plan.stop.spp - (samples / pixels as u64) as u32).min(PASS);
         let mut counts = Vec::new();
-        if plan.adaptive && passes >= 2 {
+        if plan.adaptive && passes >= 2 && passes % 2 == 1 {
             let left = (budget - spent) as u64;
             counts = adaptive_counts(&film, left.min(u64::from(PASS) * pixels as u64));
         }

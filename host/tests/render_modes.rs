@@ -268,3 +268,47 @@ fn output_problems_are_found_first_and_name_the_file() {
         "only 3 rows",
     );
 }
+
+/// `converge` writes its CSV (and the plot, where the labels' font is installed) and prints a
+/// slope; its usage errors exit 2, bad outputs and scenes exit 1 naming the file.
+#[test]
+fn converge_writes_its_report_and_refuses_bad_arguments() {
+    let d = dir("converge");
+    let csv = d.join("furnace.csv");
+    let args = ["converge", "-o", s(&csv), "--size", "8x8", "--repeats", "2"];
+    let out = ok(&[&args[..], &["--seconds", "0.2", "--adaptive"]].concat());
+    assert!(
+        out.contains("slope=") && out.contains("mode=adaptive"),
+        "{out}"
+    );
+    assert!(out.contains("analytic"), "{out}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("mode,spp,seconds,rmse,seconds_min,seconds_max,rmse_min,rmse_max,repeats")
+    );
+    let first: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!((first[0], first[1], first[8]), ("uniform", "2", "2"));
+    let rmse: f64 = first[3].parse().unwrap();
+    assert!(
+        rmse > 0.0 && rmse < 1.0,
+        "RMSE {rmse} of a furnace of radiance ~1"
+    );
+    if Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").exists() {
+        let png = std::fs::read(d.join("furnace.png")).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+    }
+    for bad in [
+        &["converge", "-o", "r.csv", "--seconds", "0"][..],
+        &["converge", "-o", "r.csv", "--repeats", "0"],
+        &["converge"],
+    ] {
+        assert_eq!(kdray(bad).status.code(), Some(2), "{bad:?}");
+    }
+    fails(&["converge", "-o", s(&d.join("report.txt"))], "report.txt");
+    let missing = d.join("absent.toml");
+    fails(&["converge", s(&missing), "-o", s(&csv)], "absent.toml");
+    let no_dir = d.join("nodir").join("r.csv");
+    fails(&["converge", s(&missing), "-o", s(&no_dir)], "r.csv");
+}

@@ -211,6 +211,33 @@ fn both_samplers_estimate_the_same_integral() {
     assert_eq!(cosine_hemisphere_pdf(-0.5), 0.0);
 }
 
+/// The two samplers give the same mean for a Lambertian surface under a sky that is not
+/// uniform, `L(ω) = 1 + x + z²` (local frame, z the normal): the reflected radiance over albedo,
+/// `(1/π)∫ L cosθ dω = 1 + 0 + 2·∫₀^{π/2} cos³θ sinθ dθ = 3/2`, estimated as `mean(L·2cosθ)`
+/// with uniform directions (pdf 1/2π) and `mean(L)` with cosine-weighted ones (pdf cosθ/π). Both
+/// within 5 standard errors (from the samples' own variance) of 3/2 and of each other.
+#[test]
+fn both_samplers_give_the_same_mean_under_a_varying_sky() {
+    let sky = |v: Vec3| 1.0 + f64::from(v.x) + f64::from(v.z).powi(2);
+    let stats = |sample: Sampler, seed: u64, f: &dyn Fn(Vec3) -> f64| {
+        let mut rng = Lcg::new(seed);
+        let xs: Vec<f64> = (0..N)
+            .map(|_| f(sample(rng.next_f32(), rng.next_f32())))
+            .collect();
+        let m = xs.iter().sum::<f64>() / N as f64;
+        let var = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (N - 1) as f64;
+        (m, se(var))
+    };
+    let (u, u_se) = stats(uniform_hemisphere, 11, &|v| sky(v) * 2.0 * f64::from(v.z));
+    let (c, c_se) = stats(cosine_hemisphere, 12, &|v| sky(v));
+    eprintln!("uniform {u:.5} ± {u_se:.5}, cosine {c:.5} ± {c_se:.5}");
+    assert!((u - 1.5).abs() <= 5.0 * u_se, "uniform: {u} ± {u_se}");
+    assert!((c - 1.5).abs() <= 5.0 * c_se, "cosine: {c} ± {c_se}");
+    assert!((u - c).abs() <= 5.0 * u_se.hypot(c_se), "{u} against {c}");
+    // The cosine-weighted estimate has the lower variance, which is why the renderer uses it.
+    assert!(c_se < u_se, "{c_se} against {u_se}");
+}
+
 /// The domain ends map where the formulas say: u2 = 0 is the horizon for the uniform sampler,
 /// u1 = 0 the pole for the cosine one.
 #[test]

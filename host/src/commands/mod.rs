@@ -1,11 +1,13 @@
 //! The subcommands behind `main`.
 
 mod build;
+mod converge;
 mod merge;
 mod render;
 mod trace;
 
 pub use build::{BuildArgs, build, info};
+pub use converge::{ConvergeArgs, converge};
 pub use merge::merge;
 pub use render::{RenderArgs, render};
 pub use trace::{RayKind, TraceArgs, rays, trace};

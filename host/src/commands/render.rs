@@ -42,8 +42,8 @@ pub struct RenderArgs {
     /// variance) is below this, e.g. 0.01.
     #[arg(long, value_parser = parse_positive)]
     pub noise: Option<f64>,
-    /// Spend each pass's samples where the per-pixel variance is highest (after two uniform
-    /// passes) instead of evenly.
+    /// After two even passes, spend every other pass's samples where the per-pixel variance is
+    /// (n ∝ σ) instead of evenly (README: ~10 % lower RMSE at equal time with glass).
     #[arg(long)]
     pub adaptive: bool,
     /// Image size WxH (default: the scene's `[render] width, height`).
