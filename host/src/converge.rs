@@ -14,8 +14,8 @@ use std::path::Path;
 
 /// The white furnace (`kdray converge` without a scene): inside a sphere of radius 1 floats a
 /// sphere of radius 0.35, both of one material, diffuse with albedo a = 0.5 and emitting
-/// Le = 0.5, so the radiance everywhere is Le / (1 − a) = 1 (up to the cut after `max_depth` hits,
-/// see [`furnace_radiance`]). The camera, inside the big sphere, sees both.
+/// Le = 0.5 from both sides, so the radiance everywhere is Le / (1 − a) = 1 (up to the cut after
+/// `max_depth` hits, see [`furnace_radiance`]). The camera, inside the big sphere, sees both.
 ///
 /// Why this shape: next-event estimation picks a point on an emitter by area, and where two
 /// surfaces meet at an angle (a cube's edges, even the shallow ones of a triangulated sphere) the
@@ -45,6 +45,8 @@ name = "furnace"
 kind = "emissive"
 albedo = [0.5, 0.5, 0.5]
 emission = [0.5, 0.5, 0.5]
+# The big sphere emits from its inside, the back of its outward normal.
+two_sided = true
 
 [[sphere]]
 center = [0.0, 0.0, 0.0]

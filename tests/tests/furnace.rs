@@ -34,6 +34,8 @@ fn check_furnace(a: f32, le: f32, max_depth: u32, spp: u32) {
         albedo: Vec3::splat(a),
         emission: Vec3::splat(le),
         ior: 1.5,
+        // The big sphere emits from its inside, the back of its outward normal.
+        two_sided: true,
     }];
     let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
     render::emitters(&scene, &materials, &mut lights);

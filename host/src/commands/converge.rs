@@ -15,7 +15,6 @@ use super::{parse_size, pool};
 use glam::Vec3;
 use kdray::converge::{self, Point};
 use kdray::error::{Error, Result};
-use kdray::image;
 use kdray::plot::{self, LogLog, Series};
 use kdray::progressive::{Plan, Stats, Stop};
 use kdray_core::render::{Bounces, Settings};
@@ -89,8 +88,8 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
         return Err(Error::new(&args.out, "the report must be a .csv file"));
     }
     let png = args.out.with_extension("png");
-    image::check_writable(&args.out)?;
-    image::check_writable(&png)?;
+    kdray::files::check_output(&args.out)?;
+    kdray::files::check_output(&png)?;
     let file = match &args.scene {
         Some(path) => kdray::scene::load_scene(path)?,
         None => converge::furnace_scene(),
