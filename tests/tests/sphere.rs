@@ -185,20 +185,39 @@ fn check_no_nan(s: &Sphere, ray: &Ray) -> Result<(), TestCaseError> {
     Ok(())
 }
 
-/// The worst |Δt| against f64 of the stable and the textbook sphere forms over many rays, and how
-/// often the textbook form missed outright.
+/// The worst |Δt| against f64 of the stable and the textbook sphere forms over many rays, how
+/// often the textbook form missed outright, and the stable form's worst |Δt| in units of
+/// [`far_bound`].
 #[derive(Default)]
 struct FarErrors {
     worst_stable: f64,
     worst_textbook: f64,
     textbook_misses: u32,
+    worst_of_bound: f64,
+}
+
+/// The derived bound on the stable form's |Δt| for a far sphere (`|f| ≫ R`, `f = o − c`, half
+/// chord `h`): `8u·|f|·(1 + R/h)`.
+///
+/// `b = f·d` rounds by at most `γ(3)·|f|` (three products and two sums of terms bounded by
+/// `|f|`, `d` unit); `perp = f − b·d` then errs by a few `u·|f|` per component, so the squared
+/// half chord `R² − |perp|²` by `2|perp|·δperp ≤ 2R·γ(4)|f|`, and its square root `h` by
+/// `R·γ(4)|f| / h`; `t = −b − h` (or Vieta's `cq / q`, as accurate) adds these and one final
+/// rounding: `|Δt| ≤ γ(3)|f| + γ(4)|f|·R/h + u·t ≤ 8u·|f|·(1 + R/h)`. The point: the error
+/// scales with the distance `|f|`, not with `|f|² / R²` as the textbook form's cancellation does.
+fn far_bound(ray: &Ray, s: &Sphere) -> f64 {
+    let f = (dv(ray.origin) - dv(s.center)).length();
+    let h = f64ref::sphere_half_chord2(ray.origin, ray.dir, s.center, s.radius).sqrt();
+    8.0 * U * f * (1.0 + f64::from(s.radius) / h)
 }
 
 impl FarErrors {
     fn add(&mut self, ray: &Ray, s: &Sphere) {
         let (want, _) = f64ref::sphere_roots(ray.origin, ray.dir, s.center, s.radius).unwrap();
         let t = s.intersect(ray).expect("the stable form lost the sphere");
-        self.worst_stable = self.worst_stable.max((f64::from(t) - want).abs());
+        let err = (f64::from(t) - want).abs();
+        self.worst_stable = self.worst_stable.max(err);
+        self.worst_of_bound = self.worst_of_bound.max(err / far_bound(ray, s));
         match textbook_near_root(ray, s) {
             Some(t) => self.worst_textbook = self.worst_textbook.max((f64::from(t) - want).abs()),
             None => self.textbook_misses += 1,
@@ -208,8 +227,14 @@ impl FarErrors {
     /// Prints the figures (run with `--nocapture` to see them) and hands them back.
     fn report(self, what: &str, rays: u32) -> Self {
         eprintln!(
-            "{what}: stable max |Δt| = {:e}; textbook max |Δt| = {:e}, misses {}/{rays}",
-            self.worst_stable, self.worst_textbook, self.textbook_misses
+            "{what}: stable max |Δt| = {:e} ({:.3} of the derived bound); textbook max |Δt| = {:e}, \
+             misses {}/{rays}",
+            self.worst_stable, self.worst_of_bound, self.worst_textbook, self.textbook_misses
+        );
+        assert!(
+            self.worst_of_bound <= 1.0,
+            "{what}: |Δt| {:.2} times the derived bound",
+            self.worst_of_bound
         );
         self
     }
@@ -217,7 +242,8 @@ impl FarErrors {
 
 /// Radius 1 at distance 10⁴ along an axis, lines across the whole disc (impact parameter up to
 /// 0.9 R): the stable form keeps |Δt| ≤ 1e-3·R — measured 4.9e-4, i.e. half an f32 ulp of
-/// t ≈ 10⁴ (2⁻¹⁰), the best f32 can represent. The textbook quadratic of equation (32) computes
+/// t ≈ 10⁴ (2⁻¹⁰), the best f32 can represent — and within the derived bound [`far_bound`] on
+/// every ray. The textbook quadratic of equation (32) computes
 /// `b² − (|f|² − R²)` with both terms ≈ 10⁸, where an f32 ulp is 8 > R²: it loses the sphere
 /// (misses, or tangent-like roots off by up to ~R).
 #[test]
@@ -241,6 +267,7 @@ fn sphere_far_small_sphere_is_kept_by_the_stable_form() {
         worst_stable,
         worst_textbook,
         textbook_misses,
+        ..
     } = e.report("far sphere", n);
     assert!(worst_stable <= 1e-3, "stable form: |Δt| = {worst_stable}");
     // The case is stiff: the textbook form is at least 100 times worse, or misses outright.
@@ -254,13 +281,10 @@ fn sphere_far_small_sphere_is_kept_by_the_stable_form() {
     assert_eq!(textbook_near_root(&ray, &s), Some(1.0e4));
 }
 
-/// Radius 1 at distance 10⁴ in arbitrary directions. Now `o − c` has three 10⁴-sized components
-/// and the dot products alone round by about an ulp of 10⁴ (2⁻¹⁰ ≈ 9.8e-4), so 1e-3·R is beyond
-/// f32 here; the stable form stays within 4 ulps of t (measured 2.4 ulps, |Δt| = 2.3e-3), the
-/// textbook one does not come close.
-#[test]
-fn sphere_far_small_sphere_in_any_direction() {
-    let mut rng = Lcg::new(2);
+/// 2000 spheres of `radius` at `distance` from the origin in random directions (seed `seed`),
+/// each crossed by a ray from the origin with impact parameter up to 0.9 R.
+fn far_spheres_in_any_direction(seed: u64, distance: f32, radius: f32) -> FarErrors {
+    let mut rng = Lcg::new(seed);
     let mut unit = || loop {
         let v = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
         if v.length() > 0.1 && v.length() <= 1.0 {
@@ -269,19 +293,27 @@ fn sphere_far_small_sphere_in_any_direction() {
     };
     let mut e = FarErrors::default();
     for _ in 0..2000 {
-        let center = unit() * 1.0e4;
-        let aim = unit() * 0.9 * unit().x.abs();
-        let s = Sphere {
-            center,
-            radius: 1.0,
-        };
+        let center = unit() * distance;
+        let aim = unit() * 0.9 * radius * unit().x.abs();
+        let s = Sphere { center, radius };
         let ray = Ray::new(Vec3::ZERO, (center + aim).normalize());
         e.add(&ray, &s);
     }
+    e
+}
+
+/// Radius 1 at distance 10⁴ in arbitrary directions. Now `o − c` has three 10⁴-sized components
+/// and the dot products alone round by about an ulp of 10⁴ (2⁻¹⁰ ≈ 9.8e-4), so 1e-3·R is beyond
+/// f32 here; the stable form stays within 4 ulps of t (measured 2.4 ulps, |Δt| = 2.3e-3) and
+/// within the derived bound [`far_bound`] on every ray, the textbook one does not come close.
+#[test]
+fn sphere_far_small_sphere_in_any_direction() {
+    let e = far_spheres_in_any_direction(2, 1.0e4, 1.0);
     let FarErrors {
         worst_stable,
         worst_textbook,
         textbook_misses,
+        ..
     } = e.report("far sphere, any direction", 2000);
     let ulp = f64::from(f32::EPSILON) * 8192.0; // f32 spacing in [8192, 16384)
     assert!(
@@ -289,6 +321,27 @@ fn sphere_far_small_sphere_in_any_direction() {
         "stable form: |Δt| = {worst_stable}"
     );
     assert!(textbook_misses > 0 && worst_textbook > 0.1);
+}
+
+/// Radius 10⁻³ at distance 10 in arbitrary directions, lines across the disc (impact parameter up
+/// to 0.9 R): the stable form stays within the derived bound [`far_bound`] (`8u·|f|·(1 + R/h)`,
+/// about 1.6·10⁻⁵ here, 1.6 % of R) on every ray; measured worst 2.2·10⁻⁶, 0.22 of it. The
+/// textbook form computes `b² − (|f|² − R²)` with `|f|² = 100`, whose ulp (7.6·10⁻⁶) is larger
+/// than `R² = 10⁻⁶`: it misses the sphere (640 of 2000 rays) or puts `t` off by more than R.
+#[test]
+fn sphere_small_sphere_at_distance_10() {
+    let e = far_spheres_in_any_direction(3, 10.0, 1e-3);
+    let FarErrors {
+        worst_stable,
+        worst_textbook,
+        textbook_misses,
+        ..
+    } = e.report("radius 1e-3 at 10", 2000);
+    assert!(worst_stable <= 2e-5, "stable form: |Δt| = {worst_stable}");
+    assert!(
+        textbook_misses > 0 || worst_textbook > 1e-3,
+        "textbook form kept the sphere"
+    );
 }
 
 /// The hand-checkable cases of `intersect`: in front, inside, behind, tangent, range clipping, and
