@@ -12,9 +12,12 @@ pub mod scene;
 
 pub use error::{Error, Result};
 pub use geometry::Geometry;
+pub mod accuracy;
 pub mod build;
+pub mod closed;
 pub mod converge;
 pub mod description;
+pub mod f64ref;
 pub mod flat;
 pub mod image;
 pub mod plot;

@@ -64,6 +64,10 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// Measure every intersection kernel (Möller–Trumbore, sphere; scalar, 4- and 8-wide; f64
+    /// references) on the same ray sets: ns per test against the error of t and false misses/hits.
+    /// Prints a table, writes it as CSV and a scatter plot (PNG, next to the CSV).
+    Accuracy(commands::AccuracyArgs),
 }
 
 fn main() -> ExitCode {
@@ -92,6 +96,7 @@ fn main() -> ExitCode {
             commands::build(&input, &out, description.as_deref(), &build)
         }
         Command::Info { file } => commands::info(&file),
+        Command::Accuracy(args) => commands::accuracy(&args),
         Command::Trace(args) => commands::trace(&args),
         Command::Rays {
             input,

@@ -1,4 +1,5 @@
-//! Log-log line plots as PNG files (`plotters`), for the reports (`kdray converge`).
+//! Plots as PNG files (`plotters`), for the reports: log-log lines (`kdray converge`) and
+//! labelled scatter panels (`kdray accuracy`).
 //!
 //! `plotters` draws into an RGB buffer and the `png` crate encodes it, so no image crate and no
 //! system font library is linked; the labels' font is DejaVu Sans, read at run time from the
@@ -157,4 +158,107 @@ pub fn log_log(path: &Path, plot: &LogLog, (width, height): (u32, u32)) -> Resul
         root.present().map_err(|e| draw_error(e.to_string()))?;
     }
     crate::image::write_png_bytes(path, &rgb, width, height, false)
+}
+
+/// One labelled point of a scatter plot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Point {
+    pub x: f64,
+    pub y: f64,
+    pub label: String,
+}
+
+/// One chart of a figure: a title and its series (a name and its points; one colour each).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Panel {
+    pub title: String,
+    pub series: Vec<(String, Vec<Point>)>,
+}
+
+/// Scatter plots side by side, one per panel, on a linear `x` and a logarithmic `y` axis, every
+/// point labelled, written to `path` as a PNG of `size` pixels. Points with `y` below `y_floor`
+/// (e.g. exact zeros) are drawn on the floor.
+///
+/// # Errors
+/// An error naming `path` when the chart cannot be drawn or written.
+pub fn scatter_log_y(
+    path: &Path,
+    title: &str,
+    axes: (&str, &str),
+    panels: &[Panel],
+    y_floor: f64,
+    size: (u32, u32),
+) -> Result<()> {
+    font().map_err(|msg| Error::new(path, msg))?;
+    let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    draw(&mut rgb, title, axes, panels, y_floor, size)
+        .map_err(|e| Error::new(path, format!("cannot draw the chart: {e}")))?;
+    crate::image::write_png_bytes(path, &rgb, size.0, size.1, false)
+}
+
+type DrawResult = core::result::Result<(), Box<dyn core::error::Error>>;
+
+/// Draws the figure of [`scatter_log_y`] into an RGB8 buffer of `size` pixels.
+fn draw(
+    rgb: &mut [u8],
+    title: &str,
+    axes: (&str, &str),
+    panels: &[Panel],
+    y_floor: f64,
+    size: (u32, u32),
+) -> DrawResult {
+    let root = BitMapBackend::with_buffer(rgb, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(title, ("sans-serif", 22))?;
+    let areas = root.split_evenly((1, panels.len().max(1)));
+    for (area, panel) in areas.iter().zip(panels) {
+        draw_panel(area, panel, axes, y_floor)?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// One panel of [`draw`].
+fn draw_panel(
+    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    panel: &Panel,
+    (x_desc, y_desc): (&str, &str),
+    y_floor: f64,
+) -> DrawResult {
+    let all = || panel.series.iter().flat_map(|(_, p)| p.iter());
+    let x_max = all().map(|p| p.x).fold(0.0f64, f64::max) * 1.25 + 1e-9;
+    let y_of = |p: &Point| p.y.max(y_floor);
+    let y_max = all().map(y_of).fold(y_floor * 10.0, f64::max) * 30.0;
+    let mut chart = ChartBuilder::on(area)
+        .caption(&panel.title, ("sans-serif", 17))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(62)
+        .build_cartesian_2d(0.0..x_max, (y_floor..y_max).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .draw()?;
+    for (k, (name, points)) in panel.series.iter().enumerate() {
+        let colour = Palette99::pick(k).to_rgba();
+        chart
+            .draw_series(points.iter().enumerate().map(|(i, p)| {
+                // Alternate labels above and below, so neighbours at one height stay legible.
+                let dy = if i % 2 == 0 { -16 } else { 4 };
+                EmptyElement::at((p.x, y_of(p)))
+                    + Circle::new((0, 0), 5, colour.filled())
+                    + Text::new(p.label.clone(), (7, dy), ("sans-serif", 13))
+            }))?
+            .label(name.as_str())
+            .legend(move |(x, y)| Circle::new((x, y), 5, colour.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()?;
+    Ok(())
 }

@@ -2,12 +2,13 @@
 //!
 //! This crate is never published; its items are public only so the test binaries can share them.
 //! - [`f64ref`]: f64 references of the core's f32 kernels, the yardstick the tests measure the
-//!   core's rounding against.
+//!   core's rounding against (it lives in the host crate, `kdray::f64ref`, which `kdray accuracy`
+//!   measures with too).
 //! - [`Lcg`]: a fixed pseudo-random sequence, so the statistical tests are reproducible.
 //! - [`EDGES`]: the edge values every kernel is fed (±0, ±inf, NaN, denormals, huge, tiny).
 //! - [`strategies`]: proptest strategies for vectors, edge values and grid-snapped scenes.
 
-pub mod f64ref;
+pub use kdray::f64ref;
 pub mod strategies;
 
 /// Edge values for kernel inputs, in the spirit of wide's `tests/simd_float.rs`: signed zeros,

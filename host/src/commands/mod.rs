@@ -1,11 +1,13 @@
 //! The subcommands behind `main`.
 
+mod accuracy;
 mod build;
 mod converge;
 mod merge;
 mod render;
 mod trace;
 
+pub use accuracy::{AccuracyArgs, accuracy};
 pub use build::{BuildArgs, build, info};
 pub use converge::{ConvergeArgs, converge};
 pub use merge::merge;
