@@ -21,7 +21,7 @@ use core::cell::RefCell;
 use core::fmt::Write;
 use glam::Vec3;
 use kdray_core::description::Description;
-use kdray_core::render;
+use kdray_core::render::{self, Settings};
 use kdray_core::simd::{RayPacket, f32x4, f32x8};
 use kdray_core::{Hit, Ray, Scene, color};
 
@@ -60,6 +60,17 @@ struct Loaded {
     inputs: [(usize, usize); 2],
     desc: Description<'static>,
     camera: Cam,
+}
+
+impl Loaded {
+    /// The description's settings, for a `width × height` image (0, 0: the description's size).
+    fn settings(&self, width: u32, height: u32) -> Settings {
+        let mut s = self.desc.settings();
+        if width != 0 || height != 0 {
+            (s.width, s.height) = (width, height);
+        }
+        s
+    }
 }
 
 /// Regions handed out by `kd_alloc`: `[start, end)` byte ranges of linear memory.
@@ -277,10 +288,7 @@ pub extern "C" fn kd_render(
 ) -> i32 {
     with_state(|state| {
         let loaded = state.loaded.as_ref().ok_or(Status::NotLoaded)?;
-        let mut s = loaded.desc.settings();
-        if width != 0 || height != 0 {
-            (s.width, s.height) = (width, height);
-        }
+        let mut s = loaded.settings(width, height);
         if spp != 0 {
             s.spp = spp;
         }

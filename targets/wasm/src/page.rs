@@ -27,10 +27,7 @@ pub extern "C" fn kd_accumulate(
 ) -> i32 {
     with_state(|state| {
         let loaded = state.loaded.as_ref().ok_or(Status::NotLoaded)?;
-        let mut s = loaded.desc.settings();
-        if width != 0 || height != 0 {
-            (s.width, s.height) = (width, height);
-        }
+        let s = loaded.settings(width, height);
         let end_row = first_row.checked_add(rows).ok_or(Status::BadArgument)?;
         let end_sample = sample.checked_add(1).ok_or(Status::BadArgument)?;
         if s.width == 0 || s.height == 0 || end_row > s.height {
