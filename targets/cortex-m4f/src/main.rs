@@ -85,7 +85,11 @@ fn render() -> Result<(u32, u32, u32), &'static str> {
     let mut row = [[0.0f32; 3]; MAX_WIDTH];
     let row = &mut row[..settings.width as usize];
     let mut checksum = Fnv1a::default();
+    #[cfg(feature = "ticks")]
+    let mut ticks = ticks::Ticks::start().ok_or("SysTick already taken")?;
     for y in 0..settings.height {
+        #[cfg(feature = "ticks")]
+        let t0 = ticks::Ticks::now();
         // Every ray through the scalar walk (`Bounces::SingleRays`): on an M4F `wide` emulates
         // a packet's lanes in scalar code, and `PACKETS = false` links no packet code.
         render_rows_with::<Prims, Cam, false>(
@@ -98,9 +102,50 @@ fn render() -> Result<(u32, u32, u32), &'static str> {
             row,
         )
         .map_err(|_| "render_rows refused the settings")?;
+        #[cfg(feature = "ticks")]
+        ticks.add_since(t0);
         checksum.pixels(row);
     }
+    #[cfg(feature = "ticks")]
+    hprintln!("ticks={}", ticks.total);
     Ok((checksum.0, scene.tri_count(), scene.sphere_count()))
+}
+
+/// SysTick as a tick counter (feature `ticks`): the render's rows are timed in core-clock ticks.
+/// Under QEMU with `-icount shift=0` the virtual clock advances 1 ns per instruction and the
+/// mps2-an386's core clock is 25 MHz, so a tick is 40 instructions (`instructions.sh`).
+#[cfg(feature = "ticks")]
+mod ticks {
+    use cortex_m::peripheral::SYST;
+    use cortex_m::peripheral::syst::SystClkSource;
+
+    /// The 24-bit down-counter's range.
+    const MASK: u32 = 0x00FF_FFFF;
+
+    pub struct Ticks {
+        pub total: u64,
+    }
+
+    impl Ticks {
+        /// Starts SysTick free-running on the core clock; `None` if the peripherals were taken.
+        pub fn start() -> Option<Self> {
+            let mut syst = cortex_m::Peripherals::take()?.SYST;
+            syst.set_clock_source(SystClkSource::Core);
+            syst.set_reload(MASK);
+            syst.clear_current();
+            syst.enable_counter();
+            Some(Self { total: 0 })
+        }
+
+        pub fn now() -> u32 {
+            SYST::get_current()
+        }
+
+        /// Adds the ticks since `t0` (a span shorter than one wrap, 2^24 ticks).
+        pub fn add_since(&mut self, t0: u32) {
+            self.total += u64::from(t0.wrapping_sub(Self::now()) & MASK);
+        }
+    }
 }
 
 #[panic_handler]
