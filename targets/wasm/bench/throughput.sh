@@ -80,7 +80,7 @@ for m in "${meshes[@]}"; do
   for e in "${engines[@]}"; do
     med[$e]=$(tr ' ' '\n' <<<"${runs[$e]}" | grep . | median)
     printf '%s %s: Mrays/s per round: %s median %s; hits vs native 4: %s\n' "$m" "$e" "${runs[$e]}" "${med[$e]}" \
-      "$(node "$here/compare-hits.mjs" "$work/$m-native-4.hits" "$work/$m-$e.hits")"
+      "$(node "$here/compare-hits.mjs" "$work/$m-native-4.hits" "$work/$m-$e.hits" --prims)"
   done
   tris=$(od -An -tu4 -N4 "$data/$m.tri" | tr -d ' ')
   nrays=$(( $(stat -c %s "$work/$m.rays") / 32 ))
