@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Seeds the fuzz corpus with small valid scenes built by the kdray CLI.
+# Seeds the from_words fuzz corpus with small valid scenes built by the kdray CLI (a debug build:
+# the scenes are small, and CI has that build already).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p fuzz/corpus/from_words
-cargo run -q --release -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default.kdt
+cargo run -q -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default.kdt
 tmp=$(mktemp -d)
 python3 - "$tmp/fan.tri" <<'PY'
 import struct, sys
@@ -16,5 +17,5 @@ with open(sys.argv[1], "wb") as f:
     for t in tris:
         f.write(struct.pack("<9f", *t))
 PY
-cargo run -q --release -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan.kdt
+cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan.kdt
 rm -rf "$tmp"

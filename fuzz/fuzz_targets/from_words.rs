@@ -12,8 +12,7 @@
 
 use glam::Vec3;
 use kdray_core::format::seal;
-use kdray_core::simd::{HitPacket, Lanes, RayPacket, f32x4, f32x8};
-use kdray_core::{Hit, Ray, Scene};
+use kdray_core::{Ray, Scene};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
@@ -28,10 +27,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let rays = fan(&scene);
-    let scalar: Vec<Hit> = rays.iter().map(|r| scene.intersect(r)).collect();
-    let occluded: Vec<bool> = rays.iter().map(|r| scene.occluded(r)).collect();
-    check::<f32x4>(&scene, &rays, &scalar, &occluded);
-    check::<f32x8>(&scene, &rays, &scalar, &occluded);
+    kdray_fuzz::packets_agree_with_scalar(&scene, &rays);
 });
 
 /// Rays from outside the box towards its centre and its corners, along the axes (±0 components)
@@ -54,33 +50,4 @@ fn fan(scene: &Scene) -> Vec<Ray> {
         rays.push(Ray::new(centre, d).with_range(-extent, extent));
     }
     rays
-}
-
-fn check<L: Lanes>(scene: &Scene, rays: &[Ray], scalar: &[Hit], occluded: &[bool]) {
-    for (k, chunk) in rays.chunks(L::WIDTH).enumerate() {
-        let packet = RayPacket::<L>::from_rays(chunk);
-        let mut hits = vec![Hit::MISS; chunk.len()];
-        let found: HitPacket<L> = scene.intersect_packet(&packet);
-        found.write_active(&packet, &mut hits);
-        let any = scene.occluded_packet(&packet).bitmask();
-        for (i, hit) in hits.iter().enumerate() {
-            let want = scalar[k * L::WIDTH + i];
-            assert_eq!(
-                hit.t.to_bits(),
-                want.t.to_bits(),
-                "t, lane {i} of {:?}",
-                chunk[i]
-            );
-            assert!(
-                hit.prim == want.prim || (hit.is_hit() && want.is_hit()),
-                "prim, lane {i} of {:?}",
-                chunk[i]
-            );
-            assert_eq!(
-                any >> i & 1 == 1,
-                occluded[k * L::WIDTH + i],
-                "occlusion, lane {i}"
-            );
-        }
-    }
 }

@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# Runs each fuzz target for a while: fuzz/run.sh [SECONDS [TARGET...]] (default 30 s, all).
+# FUZZ_MODE=auto (default), nightly or stable chooses the build below.
+#
+# With a nightly toolchain and cargo-fuzz (installed from crates.io if missing), targets run under
+# cargo-fuzz with AddressSanitizer and coverage feedback. Without a nightly (a fresh machine has
+# only the stable toolchain), the same targets are built on stable as a debug build (overflow
+# checks and debug assertions on; no sanitizers or coverage feedback), and libFuzzer still
+# replays the seeds and corpus and mutates them for the time given: a crash, panic, timeout or
+# out-of-memory fails either way.
+#
+# The corpus grows in fuzz/corpus/TARGET (git-ignored) from the seeds in fuzz/seeds/TARGET;
+# from_words's seeds are scenes built by fuzz/seed.sh. A finding is written to fuzz/artifacts/.
+# Each run prints libFuzzer's closing stats (execs, corpus size) on its last lines.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+secs=${1:-30}
+shift || true
+targets=("$@")
+if [ ${#targets[@]} -eq 0 ]; then
+  targets=(from_words ply obj scene traversal)
+fi
+
+# -rss_limit_mb: a target that holds more than 2 GiB fails (the loaders' bound is far below).
+flags=(-max_total_time="$secs" -rss_limit_mb=2048 -timeout=20 -print_final_stats=1)
+
+if [ ! -d fuzz/corpus/from_words ]; then
+  bash fuzz/seed.sh
+fi
+
+# FUZZ_MODE=stable forces the stable build (CI: predictable time); nightly requires one.
+mode=${FUZZ_MODE:-auto}
+nightly=false
+if [ "$mode" = nightly ] || { [ "$mode" = auto ] && cargo +nightly --version >/dev/null 2>&1; }; then
+  nightly=true
+  if ! cargo fuzz --version >/dev/null 2>&1; then
+    cargo install cargo-fuzz --locked
+  fi
+fi
+
+for t in "${targets[@]}"; do
+  mkdir -p "fuzz/corpus/$t" "fuzz/artifacts/$t"
+  seeds=()
+  [ -d "fuzz/seeds/$t" ] && seeds=("fuzz/seeds/$t")
+  echo "== fuzz $t for ${secs}s ($([ "$nightly" = true ] && echo 'nightly, ASan' || echo 'stable, no sanitizer'))"
+  log=$(mktemp)
+  set +e
+  if [ "$nightly" = true ]; then
+    cargo +nightly fuzz run -O "$t" "fuzz/corpus/$t" "${seeds[@]}" -- \
+      -artifact_prefix="fuzz/artifacts/$t/" "${flags[@]}" >"$log" 2>&1
+  else
+    cargo build -q --manifest-path fuzz/Cargo.toml --bin "$t" &&
+      "${CARGO_TARGET_DIR:-fuzz/target}/debug/$t" "fuzz/corpus/$t" "${seeds[@]}" \
+        -artifact_prefix="fuzz/artifacts/$t/" "${flags[@]}" >"$log" 2>&1
+  fi
+  status=$?
+  set -e
+  grep -E '^(#[0-9]+ +DONE|stat::|INFO: (Running|Loaded|seed corpus))|ERROR|panicked|SUMMARY' "$log" | tail -n 16
+  rm -f "$log"
+  if [ "$status" -ne 0 ]; then
+    echo "fuzz target $t failed (exit $status); see fuzz/artifacts/$t/" >&2
+    exit "$status"
+  fi
+done
