@@ -77,9 +77,19 @@ fn round_up(x: f64) -> f32 {
 /// The f32 bounds of the part of triangle `tri` inside `bounds`, or `None` when the exact f64
 /// clip leaves nothing.
 pub fn clip_triangle(tri: &[Vec3; 3], bounds: &Aabb) -> Option<Aabb> {
-    // Sutherland–Hodgman: a triangle clipped by 6 half-spaces has at most 9 vertices.
-    let mut poly = [DVec3::ZERO; 9];
-    let mut next = [DVec3::ZERO; 9];
+    // Sutherland–Hodgman: a triangle clipped by 6 half-spaces has at most 9 vertices in exact
+    // arithmetic. In f64 an intersection point can land a rounding off an earlier plane, and the
+    // polygon is then not quite convex: with coordinates spanning some 70 orders of magnitude
+    // (found by the `obj` fuzz target), a plane can cross it more than twice. Past the capacity
+    // the clip gives up for the triangle's whole box cut by `bounds`: larger than the clipped
+    // part, so still a correct (only less tight) bound.
+    const CAP: usize = 16;
+    let fallback = || {
+        let b = Aabb::around(tri).intersection(bounds);
+        (!b.is_empty()).then_some(b)
+    };
+    let mut poly = [DVec3::ZERO; CAP];
+    let mut next = [DVec3::ZERO; CAP];
     for (dst, src) in poly.iter_mut().zip(tri) {
         *dst = src.as_dvec3();
     }
@@ -98,6 +108,9 @@ pub fn clip_triangle(tri: &[Vec3; 3], bounds: &Aabb) -> Option<Aabb> {
             };
             let mut m = 0;
             for i in 0..n {
+                if m + 2 > CAP {
+                    return fallback();
+                }
                 let (a, b) = (poly[i], poly[(i + 1) % n]);
                 let (ia, ib) = (inside(&a), inside(&b));
                 if ia {
