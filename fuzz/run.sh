@@ -5,9 +5,9 @@
 # With a nightly toolchain and cargo-fuzz (installed from crates.io if missing), targets run under
 # cargo-fuzz with AddressSanitizer and coverage feedback. Without a nightly (a fresh machine has
 # only the stable toolchain), the same targets are built on stable as a debug build (overflow
-# checks and debug assertions on; no sanitizers or coverage feedback), and libFuzzer still
-# replays the seeds and corpus and mutates them for the time given: a crash, panic, timeout or
-# out-of-memory fails either way.
+# checks and debug assertions on) with the same coverage instrumentation but no sanitizer, and
+# libFuzzer replays the seeds and corpus and mutates them, guided by coverage, for the time
+# given: a crash, panic, timeout or out-of-memory fails either way.
 #
 # The corpus grows in fuzz/corpus/TARGET (git-ignored) from the seeds in fuzz/seeds/TARGET;
 # from_words's seeds are scenes built by fuzz/seed.sh. A finding is written to fuzz/artifacts/.
@@ -50,8 +50,14 @@ for t in "${targets[@]}"; do
     cargo +nightly fuzz run -O "$t" "fuzz/corpus/$t" "${seeds[@]}" -- \
       -artifact_prefix="fuzz/artifacts/$t/" "${flags[@]}" >"$log" 2>&1
   else
-    cargo build -q --manifest-path fuzz/Cargo.toml --bin "$t" &&
-      "${CARGO_TARGET_DIR:-fuzz/target}/debug/$t" "fuzz/corpus/$t" "${seeds[@]}" \
+    # cargo-fuzz's coverage flags, which stable accepts (only the sanitizer needs nightly); with
+    # an explicit --target they stay off the build scripts, and off the workspace's own builds.
+    host=$(rustc -vV | sed -n 's/^host: //p')
+    RUSTFLAGS="--cfg fuzzing -Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
+-Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table \
+-Cllvm-args=-sanitizer-coverage-trace-compares" \
+      cargo build -q --manifest-path fuzz/Cargo.toml --target "$host" --bin "$t" &&
+      "${CARGO_TARGET_DIR:-fuzz/target}/$host/debug/$t" "fuzz/corpus/$t" "${seeds[@]}" \
         -artifact_prefix="fuzz/artifacts/$t/" "${flags[@]}" >"$log" 2>&1
   fi
   status=$?
