@@ -19,7 +19,8 @@
 #
 # Needs cargo with the wasm32-unknown-unknown target, node, `npm ci` done in targets/wasm (the
 # page test uses playwright-core) and Debian's `chromium` (scripts/targets.sh installs all of
-# them). KDRAY=path/to/kdray uses that host binary instead of building one.
+# them). KDRAY=path/to/kdray uses that host binary instead of building one; KDRAY_PAGE_PROFILE=release
+# stages the size build (build.sh without --profile) instead of the speed build.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -39,9 +40,16 @@ stage() {
   host_kdray
   mkdir -p "$out/scenes"
   cp "$here/www/index.html" "$here/www/app.js" "$here/www/engine.js" "$out/"
-  # The speed build (opt-level 3): the page is about watching it render.
-  bash "$here/build.sh" --profile speed >/dev/null
-  cp "$here/out/speed/kdray_wasm_scalar.wasm" "$here/out/speed/kdray_wasm_simd128.wasm" "$out/"
+  # The speed build (opt-level 3) by default: the page is about watching it render.
+  # KDRAY_PAGE_PROFILE=release takes the size build (opt-level "z", what run.sh builds).
+  local profile=${KDRAY_PAGE_PROFILE:-speed} mods=$here/out
+  if [[ $profile == release ]]; then
+    bash "$here/build.sh" >/dev/null
+  else
+    bash "$here/build.sh" --profile "$profile" >/dev/null
+    mods=$here/out/$profile
+  fi
+  cp "$mods/kdray_wasm_scalar.wasm" "$mods/kdray_wasm_simd128.wasm" "$out/"
   local list=() toml name
   for toml in "$root"/host/scenes/*.toml; do
     name=$(basename "$toml" .toml)
