@@ -4,7 +4,8 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         5 (4 had no checksum: files written before it are refused, rebuild them)
+//!  1  VERSION         6 (5 stored edges, not vertices; 4 had no checksum: files written before
+//!                     are refused, rebuild them)
 //!  2  CONTENTS        bit set, see `contents::*`: which sections are present
 //!  3  TOTAL_WORDS     length of the whole array in words (catches truncation and trailing data)
 //!  4  NODE_COUNT      kd-tree nodes (≥ 1; 2 words each)
@@ -33,10 +34,15 @@
 //! - **Nodes**, 2 words each, pbrt-v3's `KdAccelNode` layout plus two bits marking empty children
 //!   ([`Node`]).
 //! - **Indices**: `u32` primitive ids, referenced by leaves with more than one primitive.
-//! - **Triangles**: 10 f32 each, `v0, e1 = v1 − v0, e2 = v2 − v0`, the layout Möller–Trumbore
-//!   loads (see [`crate::triangle`]), then the triangle's parallel threshold
-//!   [`Triangle::min_det2`] (`+inf` for a degenerate triangle), so the kernels need not recompute
-//!   `|e1 × e2|²` per test. Validation recomputes it and requires the stored bits.
+//! - **Triangles**: 10 f32 each, the vertices `v0, v1, v2` exactly as the input gave them, then
+//!   the triangle's parallel threshold [`Triangle::min_det2`] (`+inf` for a degenerate triangle),
+//!   so the kernels need not recompute `|e1 × e2|²` per test. Möller–Trumbore's edges
+//!   `e1 = v1 − v0`, `e2 = v2 − v0` are computed at load ([`Scene::prepared_triangle`]) with the
+//!   same f32 subtractions the builder's [`Triangle::from_vertices`] makes, so its results are bit
+//!   for bit those of version 5, which stored the edges. Version 6 stores the vertices because the
+//!   watertight kernel ([`crate::watertight`]) needs two triangles sharing an edge to see
+//!   bit-identical vertices: `v0 + e1` is not `v1` in f32. Validation requires the vertices and
+//!   both edges finite, and recomputes the threshold and requires the stored bits.
 //! - **Spheres**: 4 f32 each, centre and radius (> 0).
 //! - **Normals**: 9 f32 per triangle, the normals at `v0, v1, v2`.
 //! - **UVs**: 6 f32 per triangle, the texture coordinates at `v0, v1, v2`.
@@ -63,8 +69,8 @@
 //!   recompute it with [`seal`]). What validation then still guarantees: no access out of range,
 //!   no panic, no walk longer than the node count, no NaN or infinite geometry, no threshold that
 //!   lets a degenerate triangle be hit, no hittable triangle (finite threshold) or sphere outside
-//!   the header's bounds (by more than 4 ulp of the bounds' magnitude for a vertex `v0 + e`, the
-//!   rounding of the stored edge), no split plane outside them. What it cannot rule out: any
+//!   the header's bounds (a sphere by more than 4 ulp of the bounds' magnitude, the rounding of
+//!   `c ± r`), no split plane outside them. What it cannot rule out: any
 //!   other geometry, tree or ids than the ones the writer meant. Such a file traces, in bounded
 //!   time, to hits that are wrong for the intended scene but consistent for the one stored.
 
@@ -76,7 +82,7 @@ use glam::Vec3;
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 5;
+pub const VERSION: u32 = 6;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).
@@ -438,12 +444,11 @@ impl<'a> Scene<'a> {
         };
         let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
         let triangles_ok = scene.tris.iter().all(|t| {
-            let tri = Triangle {
-                v0: Vec3::new(t[0], t[1], t[2]),
-                e1: Vec3::new(t[3], t[4], t[5]),
-                e2: Vec3::new(t[6], t[7], t[8]),
-            };
-            finite(&t[..9]) && tri.min_det2().to_bits() == t[9].to_bits()
+            let tri = stored_triangle(t);
+            finite(&t[..9])
+                && tri.e1.is_finite()
+                && tri.e2.is_finite()
+                && tri.min_det2().to_bits() == t[9].to_bits()
         });
         if !(triangles_ok && finite(scene.spheres) && finite(scene.normals) && finite(scene.uvs))
             || scene
@@ -518,8 +523,8 @@ impl<'a> Scene<'a> {
     }
 
     /// Every hittable triangle (finite threshold) and every sphere lies inside the header's
-    /// bounds: `v0` exactly, `v0 + e1` and `v0 + e2` within 4 ulp of the bounds' magnitude (the
-    /// rounding of the stored edges), a sphere's `c ± r` within the same slack.
+    /// bounds: a triangle's stored vertices exactly, a sphere's `c ± r` within 4 ulp of the
+    /// bounds' magnitude (the rounding of `c ± r`).
     fn check_inside_bounds(&self) -> Result<(), FormatError> {
         let [lo, hi] = self.bounds;
         let slack = lo.abs().max(hi.abs()) * (4.0 * f32::EPSILON);
@@ -529,11 +534,7 @@ impl<'a> Scene<'a> {
             if t[9] == f32::INFINITY {
                 continue; // never hit, and the builder leaves it out of the bounds
             }
-            let (tri, _) = self.prepared_triangle(i as u32);
-            let ok = inside(tri.v0, lo, hi)
-                && inside(tri.v0 + tri.e1, lo_s, hi_s)
-                && inside(tri.v0 + tri.e2, lo_s, hi_s);
-            if !ok {
+            if !stored_vertices(t).iter().all(|&v| inside(v, lo, hi)) {
                 return Err(FormatError::OutsideBounds { prim: i as u32 });
             }
         }
@@ -650,16 +651,19 @@ impl<'a> Scene<'a> {
         self.prepared_triangle(i).0
     }
 
-    /// Triangle `i` and its stored [`Triangle::min_det2`].
+    /// Triangle `i` and its stored [`Triangle::min_det2`]; the edges are computed from the stored
+    /// vertices as [`Triangle::from_vertices`] does.
     #[inline(always)]
     pub fn prepared_triangle(&self, i: u32) -> (Triangle, f32) {
         let s = &self.tris[i as usize];
-        let tri = Triangle {
-            v0: Vec3::new(s[0], s[1], s[2]),
-            e1: Vec3::new(s[3], s[4], s[5]),
-            e2: Vec3::new(s[6], s[7], s[8]),
-        };
-        (tri, s[9])
+        (stored_triangle(s), s[9])
+    }
+
+    /// The vertices `v0, v1, v2` of triangle `i` (`i < tri_count`), exactly as stored: a vertex
+    /// shared by two triangles has the same bits in both (what the watertight kernel relies on).
+    #[inline(always)]
+    pub fn vertices(&self, i: u32) -> [Vec3; 3] {
+        stored_vertices(&self.tris[i as usize])
     }
 
     /// The geometric normal of primitive `prim` at a point `p` on it, not normalized: `e1 × e2`
@@ -773,6 +777,23 @@ impl LeafPrims<'_> {
             LeafPrims::Many(s) => s,
         }
     }
+}
+
+/// The vertices of one stored triangle.
+#[inline(always)]
+fn stored_vertices(s: &[f32; stride::TRIANGLE]) -> [Vec3; 3] {
+    [
+        Vec3::new(s[0], s[1], s[2]),
+        Vec3::new(s[3], s[4], s[5]),
+        Vec3::new(s[6], s[7], s[8]),
+    ]
+}
+
+/// One stored triangle in Möller–Trumbore's layout.
+#[inline(always)]
+fn stored_triangle(s: &[f32; stride::TRIANGLE]) -> Triangle {
+    let [v0, v1, v2] = stored_vertices(s);
+    Triangle::from_vertices(v0, v1, v2)
 }
 
 const _: () = assert!(LEAF == 3);

@@ -17,6 +17,7 @@
 //! ## Modules
 //! - [`ray`]: [`Ray`] and [`Hit`].
 //! - [`triangle`]: Möller–Trumbore (seed §4), barycentric interpolation, normals.
+//! - [`watertight`]: the watertight triangle test (Woop, Benthin & Wald 2013).
 //! - [`sphere`]: the cancellation-free sphere test (Ray Tracing Gems ch. 7).
 //! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (seed §5).
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
@@ -54,6 +55,7 @@ pub mod spawn;
 pub mod sphere;
 pub mod traverse;
 pub mod triangle;
+pub mod watertight;
 pub mod words;
 
 pub use format::{FormatError, Scene};

@@ -19,18 +19,28 @@
 //! when the closest candidate lies before its entry; so the reported hit is always the closest
 //! (the argument of pbrt-v3's `ray.tMax < tMin` test, which stops the whole walk instead).
 
-use crate::format::{MAX_DEPTH, Scene, contents};
+use crate::format::{MAX_DEPTH, Scene};
 use crate::ray::{Hit, Ray};
+use crate::watertight::{self, Shear};
 use glam::Vec3;
 
 /// `γ₃ = 3ε / (1 − 3ε)`, with ε half an f32 ULP (PBR 3rd ed., §3.9.1).
 pub(crate) const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
 
 /// A compile-time choice of which primitive kinds a kernel handles, so that a triangles-only
-/// scene runs no sphere code (and firmware naming one variant links only it).
+/// scene runs no sphere code (and firmware naming one variant links only it), and of the triangle
+/// kernel: Möller–Trumbore, or with [`Watertight`] the watertight kernel and the conservative walk.
 pub trait Contents {
     const TRIANGLES: bool;
     const SPHERES: bool;
+    /// Triangles by the watertight kernel ([`crate::watertight`]), and split-plane distances
+    /// rounded outward in the walk ([`widen`]): no ray escapes a closed mesh between its
+    /// triangles, nor through a cell the walk skipped. Off (Möller–Trumbore, plain distances)
+    /// unless wrapped in [`Watertight`]; a program that never names `Watertight` links none of it.
+    const WATERTIGHT: bool = false;
+    /// The conservative walk alone ([`widen`]); it follows [`Contents::WATERTIGHT`] unless a type
+    /// sets it apart (the tests do, to count which of kernel and walk loses a ray).
+    const CONSERVATIVE: bool = Self::WATERTIGHT;
 }
 
 /// Triangles only.
@@ -39,6 +49,9 @@ pub struct Triangles;
 pub struct Spheres;
 /// Triangles and spheres.
 pub struct Mixed;
+/// The contents `C` traced in watertight mode (see [`Contents::WATERTIGHT`]), e.g.
+/// `scene.intersect_with::<Watertight<Triangles>>(&ray)`.
+pub struct Watertight<C>(core::marker::PhantomData<C>);
 
 impl Contents for Triangles {
     const TRIANGLES: bool = true;
@@ -52,12 +65,97 @@ impl Contents for Mixed {
     const TRIANGLES: bool = true;
     const SPHERES: bool = true;
 }
+impl<C: Contents> Contents for Watertight<C> {
+    const TRIANGLES: bool = C::TRIANGLES;
+    const SPHERES: bool = C::SPHERES;
+    const WATERTIGHT: bool = true;
+}
+
+/// Which triangle kernel a query uses, chosen at run time ([`Scene::intersect_in`] and the other
+/// `_in` methods); code that knows its mode at compile time names a [`Contents`] instead.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mode {
+    /// Möller–Trumbore and plain split distances: the faster, and not watertight.
+    #[default]
+    Fast,
+    /// The watertight kernel and the conservative walk ([`Watertight`]).
+    Watertight,
+}
+
+/// Runs `$body` with the type `$c` set to the [`Contents`] that matches `$scene`'s content bits,
+/// wrapped in [`Watertight`] when `$mode` is [`Mode::Watertight`].
+macro_rules! by_contents {
+    ($scene:expr, $mode:expr, |$c:ident| $body:expr) => {{
+        use $crate::format::contents as bits;
+        use $crate::traverse::{Mixed, Mode, Spheres, Triangles, Watertight};
+        let kinds = $scene.contents() & (bits::TRIANGLES | bits::SPHERES);
+        match ($mode, kinds) {
+            (Mode::Fast, bits::TRIANGLES) => {
+                type $c = Triangles;
+                $body
+            }
+            (Mode::Fast, bits::SPHERES) => {
+                type $c = Spheres;
+                $body
+            }
+            (Mode::Fast, _) => {
+                type $c = Mixed;
+                $body
+            }
+            (Mode::Watertight, bits::TRIANGLES) => {
+                type $c = Watertight<Triangles>;
+                $body
+            }
+            (Mode::Watertight, bits::SPHERES) => {
+                type $c = Watertight<Spheres>;
+                $body
+            }
+            (Mode::Watertight, _) => {
+                type $c = Watertight<Mixed>;
+                $body
+            }
+        }
+    }};
+}
+pub(crate) use by_contents;
+
+
+/// Margin by which [`widen`] moves a computed split-plane or slab distance: `2γ₃`, twice the
+/// bound on its relative rounding error (see [`widen`]).
+pub(crate) const WIDEN: f32 = 2.0 * GAMMA3;
+/// The smallest positive f32 (a subnormal): [`widen`]'s absolute term, which matters only when
+/// the distance is subnormal (or 0), where a relative bound does not hold.
+pub(crate) const TINY: f32 = f32::from_bits(1);
+
+/// `(lo, hi)` bracketing the exact distance `(p − o) / d` of which `t = (p − o) · (1/d)` is the
+/// f32 evaluation: the conservative plane distance of the watertight walk (Ize 2013, "Robust BVH
+/// Ray Traversal", §3, applied to split planes; PBR 3rd ed. §3.9.2 for the bound).
+///
+/// Argument: `p`, `o` and `d` are exact f32 inputs, and `t` is three correctly rounded operations
+/// (`p − o`, `1/d`, the product) on them, so `t = t_exact · (1 + δ₁)(1 + δ₂)(1 + δ₃)` with
+/// `|δᵢ| ≤ ε = 2⁻²⁴`, i.e. `|t − t_exact| ≤ γ₃·|t_exact|` (no cancellation is possible: `p − o`
+/// is the difference of two exact numbers, rounded once). Scaling by `1 ± 2γ₃` (each product again
+/// rounded by at most `ε`) therefore brackets `t_exact`, and `±TINY` covers the absolute error
+/// when `t` is subnormal or has underflowed to 0. Infinities stay infinite (`∞ · (1 ± c) = ∞`,
+/// never `∞ − ∞`), and NaN stays NaN, so a ray parallel to the plane is handled as before.
+#[inline(always)]
+pub fn widen(t: f32) -> (f32, f32) {
+    let (a, b) = (t * (1.0 - WIDEN), t * (1.0 + WIDEN));
+    (a.min(b) - TINY, a.max(b) + TINY)
+}
 
 /// The parametric interval `(t0, t1)` in which `ray` is inside the box, clipped to the ray's own
 /// range, or `None`.
 #[inline]
-#[allow(clippy::needless_range_loop)]
 pub fn clip_to_box(ray: &Ray, bounds: [Vec3; 2]) -> Option<(f32, f32)> {
+    clip_to_box_in::<false>(ray, bounds)
+}
+
+/// [`clip_to_box`]; with `ROBUST`, both slab distances are [`widen`]ed outward (the watertight
+/// walk), not only the far one.
+#[inline]
+#[allow(clippy::needless_range_loop)]
+pub fn clip_to_box_in<const ROBUST: bool>(ray: &Ray, bounds: [Vec3; 2]) -> Option<(f32, f32)> {
     let mut t0 = ray.tmin;
     let mut t1 = ray.tmax;
     for axis in 0..3 {
@@ -75,9 +173,13 @@ pub fn clip_to_box(ray: &Ray, bounds: [Vec3; 2]) -> Option<(f32, f32)> {
         if near > far {
             core::mem::swap(&mut near, &mut far);
         }
-        // Away from the origin's side whatever the sign (pbrt-v3 multiplies, which narrows the
-        // slab when `far < 0`, possible with `tmin < 0`).
-        far += far.abs() * (2.0 * GAMMA3);
+        if ROBUST {
+            (near, far) = (widen(near).0, widen(far).1);
+        } else {
+            // Away from the origin's side whatever the sign (pbrt-v3 multiplies, which narrows
+            // the slab when `far < 0`, possible with `tmin < 0`).
+            far += far.abs() * (2.0 * GAMMA3);
+        }
         t0 = t0.max(near);
         t1 = t1.min(far);
         if t0 > t1 {
@@ -107,36 +209,54 @@ pub fn entry_with_slack(tmin: f32) -> f32 {
 type StackItem = (u32, f32, f32);
 
 impl Scene<'_> {
-    /// The closest hit along `ray` in `(ray.tmin, ray.tmax)`, or [`Hit::MISS`]. Picks the kernel
-    /// monomorphized for the scene's contents.
+    /// The closest hit along `ray` in `(ray.tmin, ray.tmax)`, or [`Hit::MISS`], in fast mode.
+    /// Picks the kernel monomorphized for the scene's contents.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Hit {
-        match self.contents() & (contents::TRIANGLES | contents::SPHERES) {
-            contents::TRIANGLES => self.intersect_with::<Triangles>(ray),
-            contents::SPHERES => self.intersect_with::<Spheres>(ray),
-            _ => self.intersect_with::<Mixed>(ray),
-        }
+        self.intersect_in(Mode::Fast, ray)
     }
 
-    /// Whether anything lies along `ray` in `(ray.tmin, ray.tmax)` (shadow rays).
+    /// Whether anything lies along `ray` in `(ray.tmin, ray.tmax)` (shadow rays), in fast mode.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        match self.contents() & (contents::TRIANGLES | contents::SPHERES) {
-            contents::TRIANGLES => self.occluded_with::<Triangles>(ray),
-            contents::SPHERES => self.occluded_with::<Spheres>(ray),
-            _ => self.occluded_with::<Mixed>(ray),
-        }
+        self.occluded_in(Mode::Fast, ray)
+    }
+
+    /// [`Scene::intersect`] in `mode`.
+    #[inline]
+    pub fn intersect_in(&self, mode: Mode, ray: &Ray) -> Hit {
+        by_contents!(self, mode, |C| self.intersect_with::<C>(ray))
+    }
+
+    /// [`Scene::occluded`] in `mode`.
+    #[inline]
+    pub fn occluded_in(&self, mode: Mode, ray: &Ray) -> bool {
+        by_contents!(self, mode, |C| self.occluded_with::<C>(ray))
     }
 
     /// Tests one primitive against `ray`, returning `(t, u, v)`.
     #[inline(always)]
     pub fn intersect_prim<C: Contents>(&self, prim: u32, ray: &Ray) -> Option<(f32, f32, f32)> {
+        self.intersect_prim_sheared::<C>(prim, ray, &shear_for::<C>(ray))
+    }
+
+    /// [`Scene::intersect_prim`] with the ray's [`Shear`] known (unused unless watertight).
+    #[inline(always)]
+    fn intersect_prim_sheared<C: Contents>(
+        &self,
+        prim: u32,
+        ray: &Ray,
+        shear: &Shear,
+    ) -> Option<(f32, f32, f32)> {
         let n_tris = self.tri_count();
         if C::SPHERES && (!C::TRIANGLES || prim >= n_tris) {
             return self
                 .sphere(prim - n_tris)
                 .intersect(ray)
                 .map(|t| (t, 0.0, 0.0));
+        }
+        if C::WATERTIGHT {
+            return watertight::intersect_sheared(&self.vertices(prim), ray, shear);
         }
         let (tri, min_det2) = self.prepared_triangle(prim);
         tri.intersect_prepared(ray, min_det2)
@@ -147,9 +267,10 @@ impl Scene<'_> {
     pub fn intersect_with<C: Contents>(&self, ray: &Ray) -> Hit {
         let mut best = Hit::MISS;
         let mut query = *ray;
-        self.walk(ray, |scene, prims, _| {
+        let shear = shear_for::<C>(ray);
+        self.walk::<C, _>(ray, |scene, prims, _| {
             for &prim in prims {
-                if let Some((t, u, v)) = scene.intersect_prim::<C>(prim, &query) {
+                if let Some((t, u, v)) = scene.intersect_prim_sheared::<C>(prim, &query, &shear) {
                     query.tmax = t;
                     best = Hit { t, prim, u, v };
                 }
@@ -162,10 +283,11 @@ impl Scene<'_> {
     /// [`Scene::occluded`] for a fixed [`Contents`].
     pub fn occluded_with<C: Contents>(&self, ray: &Ray) -> bool {
         let mut found = false;
-        self.walk(ray, |scene, prims, _| {
+        let shear = shear_for::<C>(ray);
+        self.walk::<C, _>(ray, |scene, prims, _| {
             found = prims
                 .iter()
-                .any(|&prim| scene.intersect_prim::<C>(prim, ray).is_some());
+                .any(|&prim| scene.intersect_prim_sheared::<C>(prim, ray, &shear).is_some());
             (ray.tmax, found)
         });
         found
@@ -173,15 +295,29 @@ impl Scene<'_> {
 
     /// The front-to-back walk shared by both queries. `visit(scene, leaf_prims, (tmin, tmax))`
     /// returns the closest candidate's `t` so far and whether to stop at once.
+    ///
+    /// With [`Contents::CONSERVATIVE`] (watertight mode) every split-plane distance is [`widen`]ed: the near child's
+    /// interval ends at the upper bound of the exact distance, the far child's starts at the lower
+    /// bound, and each child is entered if the bracket reaches its side. Every interval then
+    /// contains the exact one (by induction from the root box, clipped the same way), so a cell
+    /// the ray really passes through, if only at one point (a vertex on two split planes), is never
+    /// skipped. Without it, the two rounded distances of planes that the ray crosses at one point
+    /// can cross over, and the cell between them is dropped (docs/ROBUSTNESS.md counts the rays
+    /// this loses).
     #[inline(always)]
-    fn walk<F>(&self, ray: &Ray, mut visit: F)
+    fn walk<C: Contents, F>(&self, ray: &Ray, mut visit: F)
     where
         F: FnMut(&Self, &[u32], (f32, f32)) -> (f32, bool),
     {
         if !ray.is_finite() {
             return;
         }
-        let Some((mut tmin, mut tmax)) = clip_to_box(ray, self.bounds()) else {
+        let clipped = if C::CONSERVATIVE {
+            clip_to_box_in::<true>(ray, self.bounds())
+        } else {
+            clip_to_box(ray, self.bounds())
+        };
+        let Some((mut tmin, mut tmax)) = clipped else {
             return;
         };
         let inv_dir = ray.dir.recip();
@@ -212,6 +348,12 @@ impl Scene<'_> {
             }
             let axis = node.axis();
             let t_plane = (node.split() - ray.origin[axis]) * inv_dir[axis];
+            // The near child ends, the far child starts, at the plane (its bracket, if watertight).
+            let (far_start, near_end) = if C::CONSERVATIVE {
+                widen(t_plane)
+            } else {
+                (t_plane, t_plane)
+            };
             // Near and far by the direction's sign (the sign of 1/d, so −0 counts as negative):
             // for d > 0 the below child holds the ray for t < t_plane. A NaN t_plane (origin on
             // the plane, direction parallel to it) visits both children with the same interval.
@@ -222,22 +364,22 @@ impl Scene<'_> {
                 ((index + 1, below_empty), (node.above_child(), above_empty))
             };
             // An empty child is never entered: the split only clips the interval.
-            let visit_near = !(t_plane < tmin) && !near_empty;
-            let visit_far = !(t_plane > tmax) && !far_empty;
+            let visit_near = !(near_end < tmin) && !near_empty;
+            let visit_far = !(far_start > tmax) && !far_empty;
             // Validation bounds the tree's depth by MAX_DEPTH, and at most one item per level is
             // pending, so the push cannot fail.
             match (visit_near, visit_far) {
                 (true, true) => {
-                    let _ = stack.push((far, tmin.max(t_plane), tmax));
-                    tmax = tmax.min(t_plane);
+                    let _ = stack.push((far, tmin.max(far_start), tmax));
+                    tmax = tmax.min(near_end);
                     index = near;
                 }
                 (true, false) => {
-                    tmax = tmax.min(t_plane);
+                    tmax = tmax.min(near_end);
                     index = near;
                 }
                 (false, true) => {
-                    tmin = tmin.max(t_plane);
+                    tmin = tmin.max(far_start);
                     index = far;
                 }
                 (false, false) => match stack.pop() {
@@ -245,6 +387,19 @@ impl Scene<'_> {
                     None => return,
                 },
             }
+        }
+    }
+}
+
+/// The ray's [`Shear`] when `C` is watertight; otherwise a constant that nothing reads.
+#[inline(always)]
+fn shear_for<C: Contents>(ray: &Ray) -> Shear {
+    if C::WATERTIGHT {
+        Shear::new(ray.dir)
+    } else {
+        Shear {
+            k: [0, 1, 2],
+            s: [0.0; 3],
         }
     }
 }

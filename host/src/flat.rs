@@ -74,7 +74,7 @@ pub fn serialize(
     if c & contents::TRIANGLES != 0 {
         let mut it = geom.triangles.iter().flat_map(|t| {
             let tri = Triangle::from_vertices(t[0], t[1], t[2]);
-            let [a, b, c] = [tri.v0, tri.e1, tri.e2].map(|v| v.to_array());
+            let [a, b, c] = t.map(|v| v.to_array());
             a.into_iter()
                 .chain(b)
                 .chain(c)

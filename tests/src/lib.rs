@@ -1,6 +1,7 @@
 //! Shared helpers of kdray's cross-crate integration tests (`tests/tests/*.rs`).
 //!
 //! This crate is never published; its items are public only so the test binaries can share them.
+//! - [`closed`]: closed meshes (icosphere, skinny box) and rays aimed at their seams.
 //! - [`f64ref`]: f64 references of the core's f32 kernels, the yardstick the tests measure the
 //!   core's rounding against (it lives in the host crate, `kdray::f64ref`, which `kdray accuracy`
 //!   measures with too).
@@ -8,6 +9,7 @@
 //! - [`EDGES`]: the edge values every kernel is fed (±0, ±inf, NaN, denormals, huge, tiny).
 //! - [`strategies`]: proptest strategies for vectors, edge values and grid-snapped scenes.
 
+pub mod closed;
 pub use kdray::f64ref;
 pub mod strategies;
 

@@ -8,14 +8,16 @@
 //! Inputs: first every edge value ([`EDGES`]: ±0, ±inf, NaN, denormals, tiny, huge) put in turn
 //! into each float of a base triangle, sphere and ray, plus named special cases (parallel rays,
 //! degenerate triangles, origins on the surface, tangent rays, `t == tmax`); then random inputs
-//! from proptest, both arbitrary bit patterns and rays aimed at the primitive.
+//! from proptest, both arbitrary bit patterns and rays aimed at the primitive. The watertight
+//! kernel (`kdray_core::watertight`, packet `intersect_triangle_watertight`) is fed the triangle
+//! inputs as vertices (`v0, v0 + e1, v0 + e2`), and the same random ones.
 
 use glam::Vec3;
 use kdray_core::simd::{
-    HitPacket, Lanes, PrimHits, RayPacket, f32x4, f32x8, intersect_sphere, intersect_triangle,
-    record_closest,
+    HitPacket, Lanes, PrimHits, RayPacket, ShearX, f32x4, f32x8, intersect_sphere,
+    intersect_triangle, intersect_triangle_watertight, record_closest,
 };
-use kdray_core::{Hit, Ray, Sphere, Triangle, math};
+use kdray_core::{Hit, Ray, Sphere, Triangle, math, watertight};
 use kdray_tests::EDGES;
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -62,6 +64,13 @@ fn ulps(a: f32, b: f32) -> u32 {
 enum Prim {
     Tri(Triangle),
     Sphere(Sphere),
+    /// A triangle by its vertices, for the watertight kernel.
+    Watertight([Vec3; 3]),
+}
+
+/// The watertight kernel's view of `tri`: its vertices.
+fn watertight_prim(tri: Triangle) -> Prim {
+    Prim::Watertight(tri.vertices())
 }
 
 impl Prim {
@@ -70,6 +79,7 @@ impl Prim {
         match self {
             Prim::Tri(tri) => tri.intersect(ray),
             Prim::Sphere(s) => s.intersect(ray).map(|t| (t, 0.0, 0.0)),
+            Prim::Watertight(v) => watertight::intersect(v, ray),
         }
     }
 
@@ -77,6 +87,7 @@ impl Prim {
         match self {
             Prim::Tri(tri) => intersect_triangle(tri, rays),
             Prim::Sphere(s) => intersect_sphere(s, rays),
+            Prim::Watertight(v) => intersect_triangle_watertight(v, rays, &ShearX::new(rays)),
         }
     }
 }
@@ -283,20 +294,22 @@ fn base_triangle() -> (Triangle, Vec<Ray>) {
     (tri, rays)
 }
 
-fn triangle_edge_values<L: Lanes>() {
+/// `kernel` is `Prim::Tri` (Möller–Trumbore) or [`watertight_prim`].
+fn triangle_edge_values<L: Lanes>(kernel: fn(Triangle) -> Prim) {
     let (base, base_rays) = base_triangle();
     let rays = edge_rays(&base_rays);
-    check_all::<L>(&Prim::Tri(base), &rays);
+    check_all::<L>(&kernel(base), &rays);
     for slot in 0..9 {
         for e in EDGES {
             let mut f = tri_floats(&base);
             f[slot] = e;
-            check_all::<L>(&Prim::Tri(tri_from_floats(f)), &rays);
+            check_all::<L>(&kernel(tri_from_floats(f)), &rays);
         }
     }
 }
 
-fn triangle_special_cases<L: Lanes>() {
+/// `kernel` as in [`triangle_edge_values`].
+fn triangle_special_cases<L: Lanes>(kernel: fn(Triangle) -> Prim) {
     let tri = Triangle::from_vertices(Vec3::new(-1.0, -1.0, 2.0), Vec3::new(3.0, -1.0, 2.0), {
         Vec3::new(-1.0, 2.0, 2.5)
     });
@@ -348,10 +361,24 @@ fn triangle_special_cases<L: Lanes>() {
         // … and one that overflows to inf.
         Triangle::from_vertices(Vec3::ZERO, Vec3::X * 1.0e25, Vec3::Y * 1.0e25),
     ];
-    check_all::<L>(&Prim::Tri(tri), &rays);
+    // Axis-aligned rays exactly through a vertex and an edge of a grid triangle: edge functions
+    // of exactly 0, the watertight kernel's f64 rerun (one lane or several).
+    let grid = Triangle::from_vertices(Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::Y * 2.0);
+    let grid_rays: Vec<Ray> = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)]
+        .iter()
+        .flat_map(|&(x, y)| {
+            [
+                Ray::new(Vec3::new(x, y, 1.0), Vec3::NEG_Z),
+                Ray::new(Vec3::new(x, y, -1.0), Vec3::Z),
+                Ray::new(Vec3::new(x, y, 1.0), Vec3::new(0.0, 0.0, -0.5)),
+            ]
+        })
+        .collect();
+    check_all::<L>(&kernel(grid), &grid_rays);
+    check_all::<L>(&kernel(tri), &rays);
     for d in degenerate {
-        check_all::<L>(&Prim::Tri(d), &rays);
-        check_all::<L>(&Prim::Tri(d), &edge_rays(&base_triangle().1));
+        check_all::<L>(&kernel(d), &rays);
+        check_all::<L>(&kernel(d), &edge_rays(&base_triangle().1));
     }
 }
 
@@ -708,12 +735,22 @@ macro_rules! lane_tests {
 
             #[test]
             fn triangle_edge_values_match_scalar() {
-                triangle_edge_values::<$lanes>();
+                triangle_edge_values::<$lanes>(Prim::Tri);
             }
 
             #[test]
             fn triangle_special_cases_match_scalar() {
-                triangle_special_cases::<$lanes>();
+                triangle_special_cases::<$lanes>(Prim::Tri);
+            }
+
+            #[test]
+            fn watertight_edge_values_match_scalar() {
+                triangle_edge_values::<$lanes>(watertight_prim);
+            }
+
+            #[test]
+            fn watertight_special_cases_match_scalar() {
+                triangle_special_cases::<$lanes>(watertight_prim);
             }
 
             #[test]
@@ -740,6 +777,19 @@ macro_rules! lane_tests {
                 #[test]
                 fn triangle_aimed_rays_match_scalar((tri, rays) in aimed_at_triangle(W)) {
                     check_one::<$lanes>(&Prim::Tri(tri), &rays)?;
+                }
+
+                #[test]
+                fn watertight_any_bits_matches_scalar(
+                    v in (any_vec3(), any_vec3(), any_vec3()),
+                    rays in prop::collection::vec(any_ray(), 1..=W),
+                ) {
+                    check_one::<$lanes>(&Prim::Watertight([v.0, v.1, v.2]), &rays)?;
+                }
+
+                #[test]
+                fn watertight_aimed_rays_match_scalar((tri, rays) in aimed_at_triangle(W)) {
+                    check_one::<$lanes>(&watertight_prim(tri), &rays)?;
                 }
 
                 #[test]

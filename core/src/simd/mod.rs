@@ -5,6 +5,7 @@
 //! - [`packet`]: [`RayPacket`] (rays with an active mask) and [`HitPacket`] (closest hits).
 //! - [`kernels`]: packet Möller–Trumbore and packet sphere, each matching its scalar twin lane by
 //!   lane bit for bit, and [`record_closest`], the closest-hit update.
+//! - [`watertight`]: the packet watertight kernel, matching [`crate::watertight`] lane by lane.
 //!
 //! `wide` chooses SSE, AVX, NEON, simd128 or a portable fallback at compile time from the enabled
 //! target features ([`crate::isa::name`] reports which); an 8-wide packet on a build without AVX
@@ -30,10 +31,12 @@ pub mod kernels;
 pub mod lanes;
 pub mod packet;
 pub mod traverse;
+pub mod watertight;
 
 pub use kernels::{PrimHits, intersect_sphere, intersect_triangle, record_closest};
 pub use lanes::{Lanes, Vec3x};
 pub use packet::{HitPacket, RayPacket};
+pub use watertight::{ShearX, intersect_triangle_watertight};
 pub use wide::{f32x4, f32x8};
 
 /// A 4-wide ray packet.

@@ -17,8 +17,9 @@
 use super::kernels::{PrimHits, intersect_sphere, intersect_triangle_prepared, record_closest};
 use super::lanes::Lanes;
 use super::packet::{HitPacket, RayPacket};
-use crate::format::{MAX_DEPTH, Scene, contents};
-use crate::traverse::{Contents, ENTRY_SLACK, GAMMA3, Mixed, Spheres, Triangles};
+use super::watertight::{ShearX, intersect_triangle_watertight};
+use crate::format::{MAX_DEPTH, Scene};
+use crate::traverse::{Contents, ENTRY_SLACK, GAMMA3, Mode, TINY, WIDEN, by_contents};
 use glam::Vec3;
 
 /// A pending far child with its lanes' intervals.
@@ -31,24 +32,29 @@ struct Item<L> {
 
 impl Scene<'_> {
     /// The closest hit of each active lane of `rays` in its `(tmin, tmax)`; inactive lanes stay
-    /// [`HitPacket::miss`]. Picks the kernel monomorphized for the scene's contents.
+    /// [`HitPacket::miss`]. Fast mode; picks the kernel monomorphized for the scene's contents.
     #[inline]
     pub fn intersect_packet<L: Lanes>(&self, rays: &RayPacket<L>) -> HitPacket<L> {
-        match self.contents() & (contents::TRIANGLES | contents::SPHERES) {
-            contents::TRIANGLES => self.intersect_packet_with::<Triangles, L>(rays),
-            contents::SPHERES => self.intersect_packet_with::<Spheres, L>(rays),
-            _ => self.intersect_packet_with::<Mixed, L>(rays),
-        }
+        self.intersect_packet_in(Mode::Fast, rays)
     }
 
-    /// A mask of the active lanes of `rays` that hit anything in their `(tmin, tmax)`.
+    /// A mask of the active lanes of `rays` that hit anything in their `(tmin, tmax)`, in fast
+    /// mode.
     #[inline]
     pub fn occluded_packet<L: Lanes>(&self, rays: &RayPacket<L>) -> L {
-        match self.contents() & (contents::TRIANGLES | contents::SPHERES) {
-            contents::TRIANGLES => self.occluded_packet_with::<Triangles, L>(rays),
-            contents::SPHERES => self.occluded_packet_with::<Spheres, L>(rays),
-            _ => self.occluded_packet_with::<Mixed, L>(rays),
-        }
+        self.occluded_packet_in(Mode::Fast, rays)
+    }
+
+    /// [`Scene::intersect_packet`] in `mode`.
+    #[inline]
+    pub fn intersect_packet_in<L: Lanes>(&self, mode: Mode, rays: &RayPacket<L>) -> HitPacket<L> {
+        by_contents!(self, mode, |C| self.intersect_packet_with::<C, L>(rays))
+    }
+
+    /// [`Scene::occluded_packet`] in `mode`.
+    #[inline]
+    pub fn occluded_packet_in<L: Lanes>(&self, mode: Mode, rays: &RayPacket<L>) -> L {
+        by_contents!(self, mode, |C| self.occluded_packet_with::<C, L>(rays))
     }
 
     /// [`Scene::intersect_packet`] for a fixed [`Contents`].
@@ -58,8 +64,9 @@ impl Scene<'_> {
     ) -> HitPacket<L> {
         let mut hits = HitPacket::miss();
         let mut query = *rays;
+        let shear = C::WATERTIGHT.then(|| ShearX::new(rays));
         for group in sign_groups(rays) {
-            self.walk_packet::<C, L, false>(&mut query, group, &mut hits);
+            self.walk_packet::<C, L, false>(&mut query, group, &mut hits, &shear);
         }
         hits
     }
@@ -69,22 +76,28 @@ impl Scene<'_> {
         let mut hits = HitPacket::miss();
         let mut query = *rays;
         let mut occluded = 0u32;
+        let shear = C::WATERTIGHT.then(|| ShearX::new(rays));
         for group in sign_groups(rays) {
-            occluded |= self.walk_packet::<C, L, true>(&mut query, group, &mut hits);
+            occluded |= self.walk_packet::<C, L, true>(&mut query, group, &mut hits, &shear);
         }
         L::mask_from_bits(occluded)
     }
 
-    /// Tests one primitive against the live lanes of `rays`.
+    /// Tests one primitive against the live lanes of `rays` (`shear`: the rays' [`ShearX`] when
+    /// `C` is watertight).
     #[inline(always)]
     fn intersect_prim_packet<C: Contents, L: Lanes>(
         &self,
         prim: u32,
         rays: &RayPacket<L>,
+        shear: &Option<ShearX<L>>,
     ) -> PrimHits<L> {
         let n_tris = self.tri_count();
         if C::SPHERES && (!C::TRIANGLES || prim >= n_tris) {
             return intersect_sphere(&self.sphere(prim - n_tris), rays);
+        }
+        if let (true, Some(shear)) = (C::WATERTIGHT, shear) {
+            return intersect_triangle_watertight(&self.vertices(prim), rays, shear);
         }
         let (tri, min_det2) = self.prepared_triangle(prim);
         intersect_triangle_prepared(&tri, min_det2, rays)
@@ -92,16 +105,19 @@ impl Scene<'_> {
 
     /// Walks the tree with the lanes in `group` (all of one sign octant). Closest-hit results
     /// go to `hits` and shrink `rays.tmax`; with `ANY`, returns the lanes that hit something as
-    /// soon as they do, and stops once all have.
+    /// soon as they do, and stops once all have. In watertight mode, split distances are widened
+    /// lane by lane as in the scalar walk ([`crate::traverse::widen`]), which argues why no cell
+    /// holding a hit is skipped.
     #[inline(always)]
     fn walk_packet<C: Contents, L: Lanes, const ANY: bool>(
         &self,
         rays: &mut RayPacket<L>,
         group: u32,
         hits: &mut HitPacket<L>,
+        shear: &Option<ShearX<L>>,
     ) -> u32 {
         let original_active = rays.active;
-        let (mut tmin, mut tmax) = clip_packet_to_box(rays, self.bounds());
+        let (mut tmin, mut tmax) = clip_packet_to_box::<C, L>(rays, self.bounds());
         let live = (tmin.le(tmax) & tmin.lt(L::splat(f32::INFINITY))).bitmask() & group;
         let mut done = 0u32; // ANY: lanes that found a hit
         if live == 0 {
@@ -131,7 +147,7 @@ impl Scene<'_> {
             if alive.any() && node.is_leaf() {
                 rays.active = alive;
                 for &prim in self.leaf_prims(&node).as_slice() {
-                    let found = self.intersect_prim_packet::<C, L>(prim, rays);
+                    let found = self.intersect_prim_packet::<C, L>(prim, rays, shear);
                     if ANY {
                         let bits = (found.mask & rays.active).bitmask();
                         done |= bits;
@@ -150,6 +166,11 @@ impl Scene<'_> {
             } else if alive.any() {
                 let axis = node.axis();
                 let t_split = (L::splat(node.split()) - origin[axis]) * inv_dir[axis];
+                let (far_start, near_end) = if C::CONSERVATIVE {
+                    widen_lanes(t_split)
+                } else {
+                    (t_split, t_split)
+                };
                 let [below_empty, above_empty] = node.empty_children();
                 let ((near, near_empty), (far, far_empty)) = if negative[axis] {
                     ((node.above_child(), above_empty), (index + 1, below_empty))
@@ -162,21 +183,21 @@ impl Scene<'_> {
                 let need_near = if near_empty {
                     none
                 } else {
-                    alive & !t_split.lt(tmin)
+                    alive & !near_end.lt(tmin)
                 };
                 let need_far = if far_empty {
                     none
                 } else {
-                    alive & !t_split.gt(tmax)
+                    alive & !far_start.gt(tmax)
                 };
                 match (need_near.any(), need_far.any()) {
                     (true, false) => {
-                        tmax = tmax.min(t_split);
+                        tmax = tmax.min(near_end);
                         index = near;
                         continue;
                     }
                     (false, true) => {
-                        tmin = tmin.max(t_split);
+                        tmin = tmin.max(far_start);
                         index = far;
                         continue;
                     }
@@ -185,10 +206,10 @@ impl Scene<'_> {
                         // pending.
                         let _ = stack.push(Item {
                             node: far,
-                            tmin: tmin.max(t_split),
+                            tmin: tmin.max(far_start),
                             tmax,
                         });
-                        tmax = tmax.min(t_split);
+                        tmax = tmax.min(near_end);
                         index = near;
                         continue;
                     }
@@ -207,9 +228,10 @@ impl Scene<'_> {
 /// Each lane's interval inside the box, clipped to its own range: the slab test of
 /// [`crate::traverse::clip_to_box`] in lanes, with the same operations in the same order. A zero
 /// direction component gives `±∞` bounds, or NaN when the origin lies on the slab's face, which
-/// counts as inside (the scalar test's closed slab).
+/// counts as inside (the scalar test's closed slab). In watertight mode both distances are
+/// widened ([`crate::traverse::clip_to_box_in`]).
 #[inline(always)]
-fn clip_packet_to_box<L: Lanes>(rays: &RayPacket<L>, bounds: [Vec3; 2]) -> (L, L) {
+fn clip_packet_to_box<C: Contents, L: Lanes>(rays: &RayPacket<L>, bounds: [Vec3; 2]) -> (L, L) {
     let (mut t0, mut t1) = (rays.tmin, rays.tmax);
     let inf = L::splat(f32::INFINITY);
     let widen = L::splat(2.0 * GAMMA3);
@@ -224,7 +246,11 @@ fn clip_packet_to_box<L: Lanes>(rays: &RayPacket<L>, bounds: [Vec3; 2]) -> (L, L
         let (a_nan, b_nan) = (a.is_nan(), b.is_nan());
         let near = a_nan.select(-inf, a).min(b_nan.select(-inf, b));
         let far = a_nan.select(inf, a).max(b_nan.select(inf, b));
-        let far = far + far.abs() * widen;
+        let (near, far) = if C::CONSERVATIVE {
+            (widen_lanes(near).0, widen_lanes(far).1)
+        } else {
+            (near, far + far.abs() * widen)
+        };
         t0 = t0.max(near);
         t1 = t1.min(far);
     }
@@ -251,4 +277,12 @@ fn sign_groups<L: Lanes>(rays: &RayPacket<L>) -> impl Iterator<Item = u32> {
         remaining &= !group;
         Some(group)
     })
+}
+
+/// [`crate::traverse::widen`] lane by lane: `(lo, hi)` bracketing each lane's exact distance.
+#[inline(always)]
+fn widen_lanes<L: Lanes>(t: L) -> (L, L) {
+    let tiny = L::splat(TINY);
+    let (a, b) = (t * L::splat(1.0 - WIDEN), t * L::splat(1.0 + WIDEN));
+    (a.min(b) - tiny, a.max(b) + tiny)
 }
