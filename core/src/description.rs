@@ -51,6 +51,7 @@ use crate::math;
 use crate::ray::Ray;
 use crate::render::{Bounces, Material, MaterialKind, Settings};
 use crate::sampling::Pcg32;
+use crate::traverse::Mode;
 use crate::words::Fnv1a;
 use glam::Vec3;
 
@@ -250,6 +251,8 @@ impl<'a> Description<'a> {
             background: vec3(&h[header::BACKGROUND..]),
             seed: u64::from(h[header::SEED_HI]) << 32 | u64::from(h[header::SEED_LO]),
             bounces: Bounces::default(),
+            // The description does not carry a mode: targets trace in fast mode.
+            mode: Mode::default(),
         };
         check_settings(&settings)?;
         let n_camera = h[header::CAMERA_WORDS] as usize;
@@ -315,6 +318,7 @@ impl<'a> Description<'a> {
                 background: Vec3::ONE,
                 seed: 1,
                 bounces: Bounces::default(),
+                mode: Mode::default(),
             },
             camera_kind: camera_kind::PINHOLE,
             camera,

@@ -41,7 +41,7 @@ use crate::ray::{Hit, Ray};
 use crate::sampling::{Onb, Pcg32, cosine_hemisphere};
 use crate::simd::lanes::set_lanes;
 use crate::simd::{Lanes, RayPacket, f32x8};
-use crate::traverse::{Contents, Mixed, Spheres, Triangles};
+use crate::traverse::{Contents, Mixed, Mode, Spheres, Triangles, Watertight};
 use crate::triangle::shading_normal;
 use core::f32::consts::PI;
 use core::ops::Range;
@@ -102,6 +102,10 @@ pub struct Settings {
     pub seed: u64,
     /// How the rays after the camera's are traced; the image is the same either way.
     pub bounces: Bounces,
+    /// The triangle test and walk every ray uses: [`Mode::Fast`], or [`Mode::Watertight`] so
+    /// that no ray slips through a seam of a closed mesh (`[render] watertight = true`). Read by
+    /// [`render_rows`] and [`Frame`], which pick the kernels; [`render_rows_with`]'s type decides.
+    pub mode: Mode,
 }
 
 /// How [`render_rows`] traces the bounce and shadow rays of a pixel's paths. Both give the same
@@ -138,18 +142,26 @@ impl core::fmt::Display for RenderError {
     }
 }
 
-/// `$body` with `$k` the [`Contents`] type of `$scene`'s primitive kinds and `$p` whether
-/// `$bounces` asks for packets: the run-time choice of a kernel monomorphized at compile time.
+/// `$body` with `$k` the [`Contents`] type of `$settings.mode` (wrapped in [`Watertight`] for
+/// [`Mode::Watertight`]) and of `$scene`'s primitive kinds, and `$p` whether `$settings.bounces`
+/// asks for packets: the run-time choice of a kernel monomorphized at compile time.
 macro_rules! by_kernel {
-    ($scene:expr, $bounces:expr, |$k:ident, $p:ident| $body:expr) => {{
-        let packets = $bounces == Bounces::Packets;
-        match ($scene.contents() & (contents::TRIANGLES | contents::SPHERES), packets) {
-            (contents::TRIANGLES, true) => by_kernel!(@arm $k = Triangles, $p = true, $body),
-            (contents::TRIANGLES, false) => by_kernel!(@arm $k = Triangles, $p = false, $body),
-            (contents::SPHERES, true) => by_kernel!(@arm $k = Spheres, $p = true, $body),
-            (contents::SPHERES, false) => by_kernel!(@arm $k = Spheres, $p = false, $body),
-            (_, true) => by_kernel!(@arm $k = Mixed, $p = true, $body),
-            (_, false) => by_kernel!(@arm $k = Mixed, $p = false, $body),
+    ($scene:expr, $settings:expr, |$k:ident, $p:ident| $body:expr) => {{
+        let packets = $settings.bounces == Bounces::Packets;
+        match ($settings.mode, packets) {
+            (Mode::Fast, true) => by_kernel!(@kinds $scene, Plain, true, $k, $p, $body),
+            (Mode::Fast, false) => by_kernel!(@kinds $scene, Plain, false, $k, $p, $body),
+            (Mode::Watertight, true) => by_kernel!(@kinds $scene, Watertight, true, $k, $p, $body),
+            (Mode::Watertight, false) => {
+                by_kernel!(@kinds $scene, Watertight, false, $k, $p, $body)
+            }
+        }
+    }};
+    (@kinds $scene:expr, $w:ident, $v:expr, $k:ident, $p:ident, $body:expr) => {{
+        match $scene.contents() & (contents::TRIANGLES | contents::SPHERES) {
+            contents::TRIANGLES => by_kernel!(@arm $k = $w<Triangles>, $p = $v, $body),
+            contents::SPHERES => by_kernel!(@arm $k = $w<Spheres>, $p = $v, $body),
+            _ => by_kernel!(@arm $k = $w<Mixed>, $p = $v, $body),
         }
     }};
     (@arm $k:ident = $t:ty, $p:ident = $v:expr, $body:expr) => {{
@@ -158,6 +170,9 @@ macro_rules! by_kernel {
         $body
     }};
 }
+
+/// The contents `C` in fast mode: [`by_kernel`]'s counterpart of [`Watertight`].
+type Plain<C> = C;
 
 /// Renders the rows `first_row..` that `out` holds (row-major, `settings.width` pixels a row):
 /// each pixel gets the mean radiance of its `spp` samples, linear RGB.
@@ -178,7 +193,7 @@ pub fn render_rows<C: Camera>(
     first_row: u32,
     out: &mut [[f32; 3]],
 ) -> Result<(), RenderError> {
-    by_kernel!(scene, settings.bounces, |K, P| {
+    by_kernel!(scene, settings, |K, P| {
         render_rows_with::<K, C, P>(scene, camera, materials, lights, settings, first_row, out)
     })
 }
@@ -191,7 +206,8 @@ pub fn kernel_fits<K: Contents>(scene: &Scene) -> bool {
 
 /// [`render_rows`] with the traversal kernels for a fixed [`Contents`] and a fixed way of tracing
 /// bounces, whatever `settings.bounces` says: `PACKETS` as [`Bounces::Packets`], otherwise as
-/// [`Bounces::SingleRays`] (the image is the same). Firmware that names its contents links only
+/// [`Bounces::SingleRays`] (the image is the same), and in the mode `K` names (`Watertight<_>` for
+/// watertight mode), whatever `settings.mode` says. Firmware that names its contents links only
 /// that kernel, and with `PACKETS = false` no packet code at all, for targets where `wide`
 /// emulates its lanes in scalar code (Cortex-M4F; the bytes table in `targets/cortex-m4f/README.md`).
 /// The scene must hold no other kind of primitive than `K` ([`kernel_fits`]; one would be tested
@@ -271,7 +287,7 @@ impl<C: Camera> Frame<'_, '_, C> {
         samples: Range<u32>,
         sums: &mut SampleSums,
     ) -> Result<(), RenderError> {
-        by_kernel!(self.scene, self.settings.bounces, |K, P| {
+        by_kernel!(self.scene, self.settings, |K, P| {
             self.add_samples_with::<K, P>(x, y, samples, sums)
         })
     }

@@ -119,7 +119,6 @@ macro_rules! by_contents {
 }
 pub(crate) use by_contents;
 
-
 /// Margin by which [`widen`] moves a computed split-plane or slab distance: `2γ₃`, twice the
 /// bound on its relative rounding error (see [`widen`]).
 pub(crate) const WIDEN: f32 = 2.0 * GAMMA3;
@@ -285,9 +284,11 @@ impl Scene<'_> {
         let mut found = false;
         let shear = shear_for::<C>(ray);
         self.walk::<C, _>(ray, |scene, prims, _| {
-            found = prims
-                .iter()
-                .any(|&prim| scene.intersect_prim_sheared::<C>(prim, ray, &shear).is_some());
+            found = prims.iter().any(|&prim| {
+                scene
+                    .intersect_prim_sheared::<C>(prim, ray, &shear)
+                    .is_some()
+            });
             (ray.tmax, found)
         });
         found

@@ -80,7 +80,11 @@ impl Shear {
         let k = axes(kz, dir[kz] < 0.0);
         Self {
             k,
-            s: [dir[k[0]] / dir[k[2]], dir[k[1]] / dir[k[2]], 1.0 / dir[k[2]]],
+            s: [
+                dir[k[0]] / dir[k[2]],
+                dir[k[1]] / dir[k[2]],
+                1.0 / dir[k[2]],
+            ],
         }
     }
 }
@@ -129,7 +133,11 @@ pub fn intersect_sheared(verts: &[Vec3; 3], ray: &Ray, shear: &Shear) -> Option<
     let big_t = u * z[0] + v * z[1] + w * z[2];
     let inv = 1.0 / det;
     let t = big_t * inv;
-    // `det != 0` as two comparisons, so NaN fails; `&` without short circuit, as Möller–Trumbore.
-    let hit = inside & (det > 0.0 || det < 0.0) & (t > ray.tmin) & (t < ray.tmax);
-    if hit { Some((t, v * inv, w * inv)) } else { None }
+    // `det != 0` as `|det| > 0`, so NaN fails; `&` without short circuit, as Möller–Trumbore.
+    let hit = inside & (det.abs() > 0.0) & (t > ray.tmin) & (t < ray.tmax);
+    if hit {
+        Some((t, v * inv, w * inv))
+    } else {
+        None
+    }
 }

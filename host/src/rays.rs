@@ -8,6 +8,7 @@ use glam::Vec3;
 use kdray_core::camera::{Camera, Pinhole};
 use kdray_core::sampling::{Onb, Pcg32, cosine_hemisphere};
 use kdray_core::simd::{Lanes, RayPacket};
+use kdray_core::traverse::Mode;
 use kdray_core::{Hit, Ray, Scene};
 use std::path::Path;
 
@@ -210,8 +211,13 @@ pub fn to_input_ids(scene: &Scene, hits: &mut [Hit]) {
 /// Closest hits of `rays` into `hits` (same length) by the scalar traversal; primitives in
 /// storage order (see [`to_input_ids`]).
 pub fn trace_scalar(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
+    trace_scalar_in(scene, Mode::Fast, rays, hits);
+}
+
+/// [`trace_scalar`] in `mode` (fast or watertight).
+pub fn trace_scalar_in(scene: &Scene, mode: Mode, rays: &[Ray], hits: &mut [Hit]) {
     for (ray, hit) in rays.iter().zip(hits) {
-        *hit = scene.intersect(ray);
+        *hit = scene.intersect_in(mode, ray);
     }
 }
 
@@ -219,8 +225,15 @@ pub fn trace_scalar(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
 /// inactive lanes and leave their slot as it was) by packet traversal, `L::WIDTH` consecutive
 /// rays a packet.
 pub fn trace_packets<L: Lanes>(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
+    trace_packets_in::<L>(scene, Mode::Fast, rays, hits);
+}
+
+/// [`trace_packets`] in `mode` (fast or watertight).
+pub fn trace_packets_in<L: Lanes>(scene: &Scene, mode: Mode, rays: &[Ray], hits: &mut [Hit]) {
     for (r, h) in rays.chunks(L::WIDTH).zip(hits.chunks_mut(L::WIDTH)) {
         let packet = RayPacket::<L>::from_rays(r);
-        scene.intersect_packet(&packet).write_active(&packet, h);
+        scene
+            .intersect_packet_in(mode, &packet)
+            .write_active(&packet, h);
     }
 }

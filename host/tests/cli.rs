@@ -70,50 +70,59 @@ fn build_info_trace_round_trip() {
     )
     .unwrap();
     let hits = d.join("hits.bin");
-    // Every input kind and packet width gives the same hits (4 rays: one partial packet of 8).
-    for input in [&kdt, &mesh] {
-        for packet in ["1", "4", "8"] {
-            let out = kdray(&[
-                "trace",
-                s(input),
-                "--rays",
-                s(&rays),
-                "--out",
-                s(&hits),
-                "--repeat",
-                "2",
-                "--threads",
-                "1",
-                "--packet",
-                packet,
-            ]);
-            assert!(
-                out.status.success(),
-                "{}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-            let line = String::from_utf8_lossy(&out.stdout);
-            let packet_key = format!("packet={packet}");
-            for key in [
-                "build_ms=",
-                "trace_ms=",
-                "mrays_s=",
-                "rays=4",
-                "hits=2",
-                &packet_key,
-                "isa=",
-            ] {
-                assert!(line.contains(key), "trace line lacks {key}: {line}");
-            }
-            let b = std::fs::read(&hits).unwrap();
-            assert_eq!(b.len(), 4 * 16);
-            let f = |i: usize| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
-            let u = |i: usize| u32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
-            assert_eq!((f(0), u(1)), (5.0, 0));
-            assert_eq!((f(4), u(5)), (6.0, 1));
-            assert_eq!((f(8), u(9)), (f32::INFINITY, u32::MAX));
-            assert_eq!((f(12), u(13)), (f32::INFINITY, u32::MAX));
+    // Every input kind, packet width and mode gives the same hits (4 rays: one partial packet of
+    // 8).
+    for (input, packet, mode) in [&kdt, &mesh]
+        .into_iter()
+        .flat_map(|i| ["1", "4", "8"].map(|p| (i, p)))
+        .flat_map(|(i, p)| ["fast", "watertight"].map(|m| (i, p, m)))
+    {
+        let mut args = vec![
+            "trace",
+            s(input),
+            "--rays",
+            s(&rays),
+            "--out",
+            s(&hits),
+            "--repeat",
+            "2",
+            "--threads",
+            "1",
+            "--packet",
+            packet,
+        ];
+        if mode == "watertight" {
+            args.push("--watertight");
         }
+        let out = kdray(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let line = String::from_utf8_lossy(&out.stdout);
+        let packet_key = format!("packet={packet}");
+        let mode_key = format!("mode={mode}");
+        for key in [
+            "build_ms=",
+            "trace_ms=",
+            "mrays_s=",
+            "rays=4",
+            "hits=2",
+            &packet_key,
+            "isa=",
+            &mode_key,
+        ] {
+            assert!(line.contains(key), "trace line lacks {key}: {line}");
+        }
+        let b = std::fs::read(&hits).unwrap();
+        assert_eq!(b.len(), 4 * 16);
+        let f = |i: usize| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
+        let u = |i: usize| u32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
+        assert_eq!((f(0), u(1)), (5.0, 0));
+        assert_eq!((f(4), u(5)), (6.0, 1));
+        assert_eq!((f(8), u(9)), (f32::INFINITY, u32::MAX));
+        assert_eq!((f(12), u(13)), (f32::INFINITY, u32::MAX));
     }
 }
 

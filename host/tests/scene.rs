@@ -407,3 +407,25 @@ fn lights_are_one_sided_unless_asked() {
     let s = SceneFile::from_toml_str(&two, Path::new("s.toml")).unwrap();
     assert!(s.materials[0].two_sided);
 }
+
+/// `[render] watertight` selects the trace mode: `true` and `false` parse, absent is `false`, and
+/// anything but a boolean is an error at its line.
+#[test]
+fn render_watertight_key() {
+    let sphere = "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n";
+    let parse = |extra: &str| {
+        SceneFile::from_toml_str(
+            &format!("{CAMERA}[render]\n{extra}{sphere}"),
+            Path::new("s.toml"),
+        )
+        .map(|s| s.render.watertight)
+    };
+    assert!(parse("watertight = true\n").unwrap());
+    assert!(!parse("watertight = false\n").unwrap());
+    assert!(!parse("").unwrap());
+    // CAMERA is 4 lines and [render] the 5th: the bad value is on line 6.
+    error_of(
+        &format!("{CAMERA}[render]\nwatertight = 1\n{sphere}"),
+        Some(6),
+    );
+}

@@ -41,6 +41,20 @@ impl Mesh {
             .collect()
     }
 
+    /// The mesh built (default SAH parameters, one thread) and serialized into flat words.
+    pub fn scene_words(&self) -> Vec<u32> {
+        let geom = kdray::Geometry {
+            triangles: self.triangles(),
+            ..kdray::Geometry::default()
+        };
+        let params = kdray::build::BuildParams {
+            parallel: false,
+            ..kdray::build::BuildParams::default()
+        };
+        let tree = kdray::build::build(&geom, &params, None).expect("a closed mesh builds");
+        kdray::flat::serialize(&tree, &geom, 0.0).expect("and serializes")
+    }
+
     /// Every edge once, as sorted vertex index pairs.
     pub fn edges(&self) -> Vec<(u32, u32)> {
         let mut edges: Vec<(u32, u32)> = self
@@ -82,6 +96,28 @@ impl Mesh {
             targets.extend((1..5).map(|k| a + (b - a) * (k as f32 / 5.0)));
         }
         targets
+    }
+
+    /// How many of the edge points of [`Mesh::seam_targets`] lie exactly on their edge's line (the
+    /// rest were moved off it by the rounding of `a + (b − a)·f`), by the cross product in f64:
+    /// differences of f32 are exact there, and their products are unless they need more than 53
+    /// bits (coordinates of very different magnitudes), so the count is exact up to such rare
+    /// roundings.
+    pub fn edge_targets_on_edge(&self) -> usize {
+        let d = |p: Vec3, q: Vec3| [0, 1, 2].map(|i| f64::from(p[i]) - f64::from(q[i]));
+        self.edges()
+            .into_iter()
+            .flat_map(|(a, b)| {
+                let (a, b) = (self.vertices[a as usize], self.vertices[b as usize]);
+                (1..5).map(move |k| (a, b, a + (b - a) * (k as f32 / 5.0)))
+            })
+            .filter(|&(a, b, p)| {
+                let (u, v) = (d(p, a), d(b, a));
+                u[1] * v[2] == u[2] * v[1]
+                    && u[2] * v[0] == u[0] * v[2]
+                    && u[0] * v[1] == u[1] * v[0]
+            })
+            .count()
     }
 
     /// A ray from `origin` to each of [`Mesh::seam_targets`], `tmin = 0`, `tmax = ∞`.

@@ -128,7 +128,31 @@ fn every_single_bit_flip_is_refused() {
     );
 }
 
-/// A file of the previous version (4: no checksum, reserved words from 24) is refused with a
+/// A file of version 5 (triangles stored as `v0, e1, e2`, not the vertices the watertight kernel
+/// needs) is refused with a message saying to rebuild it.
+#[test]
+fn version_5_asks_for_a_rebuild() {
+    let mut w = valid_words();
+    w[header::VERSION] = 5;
+    seal(&mut w);
+    let err = check(&w).unwrap_err();
+    assert_eq!(err, FormatError::UnsupportedVersion(5));
+    assert!(err.to_string().contains("rebuild the file"), "{err}");
+}
+
+/// Stored vertices that are finite but whose edge `v1 − v0` overflows are refused (Möller–Trumbore
+/// computes the edges at load and would see infinities).
+#[test]
+fn vertices_whose_edges_overflow_are_refused() {
+    let mut w = valid_words();
+    let tris = w[header::TRIS_OFFSET] as usize;
+    w[tris] = 3.0e38f32.to_bits();
+    w[tris + 3] = (-3.0e38f32).to_bits();
+    seal(&mut w);
+    assert_eq!(check(&w), Err(FormatError::NonFiniteGeometry));
+}
+
+/// A file of an older version (4: no checksum, reserved words from 24) is refused with a
 /// message saying to rebuild it, not as damaged.
 #[test]
 fn old_version_asks_for_a_rebuild() {
@@ -153,10 +177,18 @@ fn geometry_outside_the_bounds_is_refused() {
         check(&w)
     };
     let tris = good[header::TRIS_OFFSET] as usize;
-    // Triangle 0's v0 moved 1 past the box in x (its threshold does not depend on v0).
+    // Triangle 0's v0 moved 1 past the box in x, its threshold recomputed to match.
     let max_x = f32::from_bits(good[header::BOUNDS + 3]);
     assert_eq!(
-        resealed(&|w| w[tris] = (max_x + 1.0).to_bits()),
+        resealed(&|w| {
+            w[tris] = (max_x + 1.0).to_bits();
+            let v = |k: usize| {
+                let f = |j: usize| f32::from_bits(w[tris + 3 * k + j]);
+                Vec3::new(f(0), f(1), f(2))
+            };
+            let tri = kdray_core::Triangle::from_vertices(v(0), v(1), v(2));
+            w[tris + 9] = tri.min_det2().to_bits();
+        }),
         Err(FormatError::OutsideBounds { prim: 0 })
     );
     // A bounds box shrunk by a little cuts off some primitive.

@@ -6,10 +6,11 @@
 use glam::Vec3;
 use kdray::build::{BuildParams, build};
 use kdray::flat::serialize;
-use kdray_core::traverse::Mixed;
+use kdray_core::traverse::{Contents, Mixed, Mode, Watertight};
 use kdray_core::{Hit, Ray, Scene};
 use kdray_tests::strategies::{grid_geometry, grid_point};
 use proptest::prelude::*;
+use proptest::test_runner::TestCaseError;
 
 fn direction() -> impl Strategy<Value = Vec3> {
     let component = prop_oneof![
@@ -44,17 +45,63 @@ fn params() -> impl Strategy<Value = BuildParams> {
     })
 }
 
-/// The closest hit by testing every primitive.
-fn brute_force(scene: &Scene, ray: &Ray) -> Hit {
+/// The closest hit by testing every primitive with `C`'s kernels.
+fn brute_force<C: Contents>(scene: &Scene, ray: &Ray) -> Hit {
     let mut best = Hit::MISS;
     for prim in 0..scene.prim_count() {
-        if let Some((t, u, v)) = scene.intersect_prim::<Mixed>(prim, ray)
+        if let Some((t, u, v)) = scene.intersect_prim::<C>(prim, ray)
             && t < best.t
         {
             best = Hit { t, prim, u, v };
         }
     }
     best
+}
+
+/// The walk in `mode` against brute force with the same kernels (`C`): the same closest `t`
+/// (ties at a shared edge may name either primitive) and the same any-hit answer.
+fn check_walk<C: Contents>(
+    scene: &Scene,
+    geom: &kdray::Geometry,
+    ray: &Ray,
+    mode: Mode,
+) -> Result<(), TestCaseError> {
+    let expect = brute_force::<C>(scene, ray);
+    let got = scene.intersect_in(mode, ray);
+    // The same t exactly (as numbers: primitives tying at the origin give 0 and -0).
+    prop_assert!(
+        got.t == expect.t,
+        "{:?} ray {:?}: got {:?}, brute force {:?}\ntris {:?}\nspheres {:?}",
+        mode,
+        ray,
+        got,
+        expect,
+        geom.triangles
+            .iter()
+            .map(|t| t.map(|v| v.to_array()))
+            .collect::<Vec<_>>(),
+        geom.spheres
+    );
+    if got.prim != expect.prim {
+        // A tie at the same t (shared edge, coincident primitives): both are correct.
+        let own = scene.intersect_prim::<C>(got.prim, ray).map(|h| h.0);
+        prop_assert_eq!(
+            own,
+            Some(expect.t),
+            "{:?} ray {:?}: prim {} is not a tie",
+            mode,
+            ray,
+            got.prim
+        );
+    }
+    prop_assert_eq!(
+        scene.occluded_in(mode, ray),
+        expect.is_hit(),
+        "{:?} any-hit disagrees for {:?}",
+        mode,
+        ray
+    );
+    Ok(())
 }
 
 proptest! {
@@ -70,17 +117,8 @@ proptest! {
         let words = serialize(&tree, &geom, 0.0).unwrap();
         let scene = Scene::from_words(&words).unwrap();
         for ray in &rays {
-            let expect = brute_force(&scene, ray);
-            let got = scene.intersect(ray);
-            // The same t exactly (as numbers: primitives tying at the origin give 0 and -0).
-            prop_assert!(got.t == expect.t, "ray {:?}: got {:?}, brute force {:?}\ntris {:?}\nspheres {:?}", ray, got, expect,
-                geom.triangles.iter().map(|t| t.map(|v| v.to_array())).collect::<Vec<_>>(), geom.spheres);
-            if got.prim != expect.prim {
-                // A tie at the same t (shared edge, coincident primitives): both are correct.
-                let own = scene.intersect_prim::<Mixed>(got.prim, ray).map(|h| h.0);
-                prop_assert_eq!(own, Some(expect.t), "ray {:?}: prim {} is not a tie", ray, got.prim);
-            }
-            prop_assert_eq!(scene.occluded(ray), expect.is_hit(), "any-hit disagrees for {:?}", ray);
+            check_walk::<Mixed>(&scene, &geom, ray, Mode::Fast)?;
+            check_walk::<Watertight<Mixed>>(&scene, &geom, ray, Mode::Watertight)?;
         }
     }
 }

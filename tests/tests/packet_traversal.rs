@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
-use kdray_core::traverse::Mixed;
+use kdray_core::traverse::{Mixed, Mode, Watertight};
 use kdray_core::{Hit, Ray, Scene};
 use kdray_tests::strategies::{grid_geometry, grid_point, scene_words};
 use proptest::prelude::*;
@@ -47,7 +47,7 @@ fn rays() -> impl Strategy<Value = Vec<Ray>> {
 }
 
 macro_rules! packet_matches_scalar {
-    ($name:ident, $lanes:ty, $w:expr) => {
+    ($name:ident, $lanes:ty, $w:expr, $mode:expr, $contents:ty) => {
         proptest! {
             #![proptest_config(ProptestConfig { cases: 300, max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
             #[test]
@@ -59,10 +59,10 @@ macro_rules! packet_matches_scalar {
                         let packet = RayPacket::<$lanes>::from_rays(chunk);
                         let sentinel = Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 };
                         let mut out = [sentinel; 8];
-                        scene.intersect_packet(&packet).write_active(&packet, &mut out[..$w]);
-                        let occluded = scene.occluded_packet(&packet).bitmask();
+                        scene.intersect_packet_in($mode, &packet).write_active(&packet, &mut out[..$w]);
+                        let occluded = scene.occluded_packet_in($mode, &packet).bitmask();
                         for (i, ray) in chunk.iter().enumerate() {
-                            let want = scene.intersect(ray);
+                            let want = scene.intersect_in($mode, ray);
                             let got = out[i];
                             if !ray.is_finite() {
                                 prop_assert_eq!(got, sentinel, "inactive lane {} written", i);
@@ -70,10 +70,10 @@ macro_rules! packet_matches_scalar {
                             }
                             prop_assert!(got.t == want.t, "lane {} ray {:?}: packet {:?} scalar {:?}", i, ray, got, want);
                             if got.prim != want.prim {
-                                let own = scene.intersect_prim::<Mixed>(got.prim, ray).map(|h| h.0);
+                                let own = scene.intersect_prim::<$contents>(got.prim, ray).map(|h| h.0);
                                 prop_assert_eq!(own, Some(want.t), "lane {}: prim {} is not a tie", i, got.prim);
                             }
-                            prop_assert_eq!(occluded >> i & 1 == 1, scene.occluded(ray), "occlusion lane {} ray {:?}", i, ray);
+                            prop_assert_eq!(occluded >> i & 1 == 1, scene.occluded_in($mode, ray), "occlusion lane {} ray {:?}", i, ray);
                         }
                         for (i, slot) in out.iter().enumerate().skip(chunk.len()) {
                             prop_assert_eq!(*slot, sentinel, "lane {} past the rays written", i);
@@ -85,5 +85,20 @@ macro_rules! packet_matches_scalar {
     };
 }
 
-packet_matches_scalar!(packet4_matches_scalar, f32x4, 4);
-packet_matches_scalar!(packet8_matches_scalar, f32x8, 8);
+packet_matches_scalar!(packet4_matches_scalar, f32x4, 4, Mode::Fast, Mixed);
+packet_matches_scalar!(packet8_matches_scalar, f32x8, 8, Mode::Fast, Mixed);
+// Watertight mode: the packet walks against the scalar walk, both watertight.
+packet_matches_scalar!(
+    watertight_packet4_matches_scalar,
+    f32x4,
+    4,
+    Mode::Watertight,
+    Watertight<Mixed>
+);
+packet_matches_scalar!(
+    watertight_packet8_matches_scalar,
+    f32x8,
+    8,
+    Mode::Watertight,
+    Watertight<Mixed>
+);

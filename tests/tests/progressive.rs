@@ -9,6 +9,7 @@ use kdray::progressive::{self, Plan, Stop};
 use kdray_core::Scene;
 use kdray_core::camera::Pinhole;
 use kdray_core::render::{self, Bounces, Frame, Material, MaterialKind, Settings};
+use kdray_core::traverse::Mode;
 use kdray_tests::strategies::scene_words;
 
 fn material(kind: MaterialKind, albedo: f32, emission: f32) -> Material {
@@ -70,6 +71,7 @@ fn settings(spp: u32) -> Settings {
         background: Vec3::splat(0.2),
         seed: 3,
         bounces: Bounces::Packets,
+        mode: Mode::Fast,
     }
 }
 

@@ -6,6 +6,7 @@ use kdray::Geometry;
 use kdray_core::Scene;
 use kdray_core::camera::Pinhole;
 use kdray_core::render::{self, Bounces, Material, MaterialKind, RenderError, Settings};
+use kdray_core::traverse::Mode;
 use kdray_tests::strategies::scene_words;
 
 fn material(kind: MaterialKind, albedo: f32, emission: f32) -> Material {
@@ -27,6 +28,7 @@ fn settings(size: u32, spp: u32, max_depth: u32, background: f32) -> Settings {
         background: Vec3::splat(background),
         seed: 7,
         bounces: Bounces::Packets,
+        mode: Mode::Fast,
     }
 }
 
@@ -371,6 +373,21 @@ fn packed_and_single_ray_paths_render_the_same_image() {
         assert!(
             a == b,
             "spp {spp}, max_depth {max_depth}: the images differ"
+        );
+        // The same in watertight mode: packets and single rays agree there too.
+        let tight = Settings {
+            mode: Mode::Watertight,
+            ..packed
+        };
+        let tight_single = Settings {
+            mode: Mode::Watertight,
+            ..single
+        };
+        let c = render_image(&geom, &camera, &materials, &tight);
+        let d = render_image(&geom, &camera, &materials, &tight_single);
+        assert!(
+            c == d,
+            "watertight, spp {spp}, max_depth {max_depth}: the images differ"
         );
         if max_depth > 0 {
             // Not a vacuous comparison: light, sky and shadow all show.

@@ -104,7 +104,7 @@ pub fn intersect_triangle_watertight<L: Lanes>(
     let big_t = u * z[0] + v * z[1] + w * z[2];
     let inv = det.recip();
     let t = big_t * inv;
-    let mask = inside & (det.gt(zero) | det.lt(zero)) & t.gt(rays.tmin) & t.lt(rays.tmax);
+    let mask = inside & det.abs().gt(zero) & t.gt(rays.tmin) & t.lt(rays.tmax);
     PrimHits {
         mask,
         t,

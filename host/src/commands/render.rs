@@ -17,6 +17,7 @@ use kdray::progressive::{self, Plan, Stats, Stop};
 use kdray::scene::{SceneCamera, SceneFile, load_scene};
 use kdray_core::Scene;
 use kdray_core::render::{self, Bounces, Frame, Material, Settings};
+use kdray_core::traverse::Mode;
 use kdray_core::words::Fnv1a;
 use std::path::{Path, PathBuf};
 
@@ -304,6 +305,11 @@ fn settings(file: &SceneFile, args: &RenderArgs) -> Result<Settings> {
         bounces: match args.bounces {
             BouncesArg::Packets => Bounces::Packets,
             BouncesArg::Single => Bounces::SingleRays,
+        },
+        mode: if r.watertight {
+            Mode::Watertight
+        } else {
+            Mode::Fast
         },
     })
 }

@@ -5,6 +5,7 @@ use super::{parse_threads, pool};
 use kdray::error::{Error, Result};
 use kdray::{files, rays};
 use kdray_core::simd::{f32x4, f32x8};
+use kdray_core::traverse::Mode;
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -27,6 +28,11 @@ pub struct TraceArgs {
     /// Worker threads (default: all cores; at most 16 per core).
     #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
+    /// Watertight mode: the watertight triangle test (Woop, Benthin & Wald 2013) and a
+    /// conservative kd-tree walk, so no ray escapes a closed mesh through a seam
+    /// (docs/ROBUSTNESS.md); slower than the default fast mode (README).
+    #[arg(long)]
+    pub watertight: bool,
     /// Trace this many times and report the fastest.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub repeat: u32,
@@ -37,15 +43,15 @@ pub struct TraceArgs {
 /// Rays per parallel work item: large enough to amortize scheduling, small enough to balance.
 const CHUNK: usize = 4096;
 
-/// Traces `rays` into `hits` (same length, pre-filled with misses): single rays, or packets of
-/// `packet` consecutive rays.
-fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], packet: u32) {
+/// Traces `rays` into `hits` (same length, pre-filled with misses) in `mode`: single rays, or
+/// packets of `packet` consecutive rays.
+fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], packet: u32, mode: Mode) {
     hits.par_chunks_mut(CHUNK)
         .zip(rays.par_chunks(CHUNK))
         .for_each(|(h, r)| match packet {
-            4 => rays::trace_packets::<f32x4>(scene, r, h),
-            8 => rays::trace_packets::<f32x8>(scene, r, h),
-            _ => rays::trace_scalar(scene, r, h),
+            4 => rays::trace_packets_in::<f32x4>(scene, mode, r, h),
+            8 => rays::trace_packets_in::<f32x8>(scene, mode, r, h),
+            _ => rays::trace_scalar_in(scene, mode, r, h),
         });
 }
 
@@ -57,11 +63,16 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
     let scene = Scene::from_words(&words).map_err(|e| Error::new(&args.input, e.to_string()))?;
     let pool = pool(&args.input, args.threads)?;
     let mut hits = vec![Hit::MISS; rays.len()];
+    let mode = if args.watertight {
+        Mode::Watertight
+    } else {
+        Mode::Fast
+    };
     let mut best = f64::INFINITY;
     for _ in 0..args.repeat {
         let start = Instant::now();
         pool.install(|| {
-            trace_all(&scene, &rays, &mut hits, args.packet);
+            trace_all(&scene, &rays, &mut hits, args.packet, mode);
             hits.par_chunks_mut(CHUNK)
                 .for_each(|h| rays::to_input_ids(&scene, h));
         });
@@ -75,12 +86,17 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         0.0
     };
     println!(
-        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={}",
+        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={}",
         best * 1e3,
         rays.len(),
         args.packet,
         kdray_core::isa::name(),
         pool.current_num_threads(),
+        if args.watertight {
+            "watertight"
+        } else {
+            "fast"
+        },
     );
     Ok(())
 }
@@ -121,7 +137,7 @@ pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64
         RayKind::Primary => primary,
         RayKind::Diffuse => {
             let mut hits = vec![Hit::MISS; primary.len()];
-            trace_all(&scene, &primary, &mut hits, 8);
+            trace_all(&scene, &primary, &mut hits, 8, Mode::Fast);
             rays::diffuse_rays(&scene, &primary, &hits, seed)
         }
     };

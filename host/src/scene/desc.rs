@@ -17,6 +17,8 @@ pub struct RenderDesc {
     pub max_depth: u32,
     /// Radiance of rays that leave the scene, linear RGB.
     pub background: [f32; 3],
+    /// Trace in watertight mode (no ray slips through a seam of a closed mesh; slower).
+    pub watertight: bool,
 }
 
 impl Default for RenderDesc {
@@ -27,6 +29,7 @@ impl Default for RenderDesc {
             spp: 16,
             max_depth: 8,
             background: [0.0; 3],
+            watertight: false,
         }
     }
 }
