@@ -12,6 +12,7 @@ use kdray::progressive::{self, Plan, Stop};
 use kdray_core::Scene;
 use kdray_core::camera::Pinhole;
 use kdray_core::render::{self, Bounces, Frame, Material, MaterialKind, Settings};
+use kdray_core::traverse::Mode;
 use kdray_tests::strategies::scene_words;
 
 /// A sphere of radius 1 with a sphere of radius 0.35 inside, off centre: an enclosure whose
@@ -56,6 +57,7 @@ fn check_furnace(a: f32, le: f32, max_depth: u32, spp: u32) {
         background: Vec3::ZERO,
         seed: 9,
         bounces: Bounces::Packets,
+        mode: Mode::Fast,
     };
     let frame = Frame {
         scene: &scene,

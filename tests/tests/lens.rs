@@ -7,6 +7,7 @@ use kdray::Geometry;
 use kdray_core::Scene;
 use kdray_core::camera::{Camera, Frame, LensArray, LensShape, ThickLens};
 use kdray_core::render::{self, Bounces, Material, MaterialKind, Settings};
+use kdray_core::traverse::Mode;
 use kdray_tests::strategies::scene_words;
 
 /// A camera frame at the origin looking down +z with +y up: `right` is then −x.
@@ -234,6 +235,7 @@ fn render_emitter<C: Camera>(geom: &Geometry, camera: &C, size: u32, spp: u32) -
         background: Vec3::ZERO,
         seed: 3,
         bounces: Bounces::Packets,
+        mode: Mode::Fast,
     };
     let mut out = vec![[0.0; 3]; (size * size) as usize];
     render::render_rows(&scene, camera, &materials, &[], &settings, 0, &mut out).unwrap();

@@ -18,6 +18,7 @@ use kdray::error::{Error, Result};
 use kdray::plot::{self, LogLog, Series};
 use kdray::progressive::{Plan, Stats, Stop};
 use kdray_core::render::{Bounces, Settings};
+use kdray_core::traverse::Mode;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -109,6 +110,7 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
         background: Vec3::from(file.render.background),
         seed,
         bounces: Bounces::Packets,
+        mode: Mode::Fast,
     };
     let modes: &[&'static str] = if args.adaptive {
         &["uniform", "adaptive"]
