@@ -1,6 +1,7 @@
 //! `kdray accuracy`: every intersection kernel's error against its run time.
 //!
-//! Each kernel variant — Möller–Trumbore scalar / 4 / 8, sphere scalar / 4 / 8, and the f64
+//! Each kernel variant — Möller–Trumbore scalar / 4 / 8, watertight scalar / 4 / 8, sphere
+//! scalar / 4 / 8, and the f64
 //! references — runs over the same [`sets`]; per set and variant the report gives the nanoseconds
 //! per ray–primitive test (median over alternating rounds, of this thread's CPU time where Linux
 //! reports it: see [`clock_name`]), the mean and largest relative error of `t` against the f64
@@ -14,7 +15,11 @@ pub mod sets;
 
 use crate::f64ref;
 use core::hint::black_box;
-use kdray_core::simd::{HitPacket, Lanes, RayPacket, f32x4, f32x8, kernels};
+use glam::Vec3;
+use kdray_core::simd::{
+    HitPacket, Lanes, RayPacket, ShearX, f32x4, f32x8, intersect_triangle_watertight, kernels,
+};
+use kdray_core::watertight::{self, Shear};
 use kdray_core::{Sphere, Triangle};
 use sets::{LANES, RaySet};
 use std::time::Instant;
@@ -30,6 +35,12 @@ pub enum Variant {
     Mt8,
     /// Möller–Trumbore in f64 on the exact vertices: the triangles' reference.
     MtF64,
+    /// Watertight (Woop, Benthin & Wald 2013), scalar (`watertight::intersect_sheared`).
+    Wt1,
+    /// Watertight, 4-wide packets (`simd::intersect_triangle_watertight`).
+    Wt4,
+    /// Watertight, 8-wide packets.
+    Wt8,
     /// The cancellation-free sphere, scalar (`Sphere::intersect`).
     Sphere1,
     /// The sphere, 4-wide.
@@ -42,11 +53,14 @@ pub enum Variant {
 
 impl Variant {
     /// Every variant, in report order.
-    pub const ALL: [Variant; 8] = [
+    pub const ALL: [Variant; 11] = [
         Variant::Mt1,
         Variant::Mt4,
         Variant::Mt8,
         Variant::MtF64,
+        Variant::Wt1,
+        Variant::Wt4,
+        Variant::Wt8,
         Variant::Sphere1,
         Variant::Sphere4,
         Variant::Sphere8,
@@ -60,6 +74,9 @@ impl Variant {
             Variant::Mt4 => "mt x4",
             Variant::Mt8 => "mt x8",
             Variant::MtF64 => "mt f64 (reference)",
+            Variant::Wt1 => "wt scalar",
+            Variant::Wt4 => "wt x4",
+            Variant::Wt8 => "wt x8",
             Variant::Sphere1 => "sphere scalar",
             Variant::Sphere4 => "sphere x4",
             Variant::Sphere8 => "sphere x8",
@@ -157,6 +174,34 @@ impl<'a> Prepared<'a> {
                     store(&mut out[c * LANES..][..LANES], t);
                 }
             }
+            Variant::Wt1 => {
+                for (c, case) in cases {
+                    for (lane, ray) in case.rays.iter().enumerate() {
+                        let (mut ray, shear) = (*ray, Shear::new(ray.dir));
+                        for v in &self.set.tris[case.tris.clone()] {
+                            if let Some((t, _, _)) = watertight::intersect_sheared(v, &ray, &shear)
+                            {
+                                ray.tmax = t;
+                            }
+                        }
+                        out[c * LANES + lane] = f64::from(ray.tmax);
+                    }
+                }
+            }
+            Variant::Wt4 => {
+                for (c, case) in cases {
+                    for (half, packet) in self.packets4[c].iter().enumerate() {
+                        let t = wt_packet(packet, &self.set.tris[case.tris.clone()]);
+                        store(&mut out[c * LANES + 4 * half..][..4], t);
+                    }
+                }
+            }
+            Variant::Wt8 => {
+                for (c, case) in cases {
+                    let t = wt_packet(&self.packets8[c], &self.set.tris[case.tris.clone()]);
+                    store(&mut out[c * LANES..][..LANES], t);
+                }
+            }
             Variant::MtF64 => {
                 for (c, case) in cases {
                     for (lane, ray) in case.rays.iter().enumerate() {
@@ -217,6 +262,19 @@ fn mt_packet<L: Lanes>(packet: &RayPacket<L>, tris: &[(Triangle, f32)]) -> L {
     let (mut rays, mut hits) = (*packet, HitPacket::<L>::miss());
     for (k, (tri, min_det2)) in tris.iter().enumerate() {
         let found = kernels::intersect_triangle_prepared(tri, *min_det2, &rays);
+        kernels::record_closest(&mut hits, &mut rays, &found, k as u32);
+    }
+    hits.t
+}
+
+/// Closest hit of a packet over `tris` by the watertight kernel: each lane's `t` (`+inf` where it
+/// missed). The shear is per packet, as traversal computes it once per packet.
+#[inline]
+fn wt_packet<L: Lanes>(packet: &RayPacket<L>, tris: &[[Vec3; 3]]) -> L {
+    let (mut rays, mut hits) = (*packet, HitPacket::<L>::miss());
+    let shear = ShearX::new(packet);
+    for (k, verts) in tris.iter().enumerate() {
+        let found = intersect_triangle_watertight(verts, &rays, &shear);
         kernels::record_closest(&mut hits, &mut rays, &found, k as u32);
     }
     hits.t
