@@ -41,6 +41,23 @@ impl Mesh {
             .collect()
     }
 
+    /// The mesh built (default SAH parameters, one thread) and serialized into flat words.
+    ///
+    /// # Panics
+    /// If the build or the serializer refuses the mesh, which the meshes made here never are.
+    pub fn scene_words(&self) -> Vec<u32> {
+        let geom = crate::Geometry {
+            triangles: self.triangles(),
+            ..crate::Geometry::default()
+        };
+        let params = crate::build::BuildParams {
+            parallel: false,
+            ..crate::build::BuildParams::default()
+        };
+        let tree = crate::build::build(&geom, &params, None).expect("a closed mesh builds");
+        crate::flat::serialize(&tree, &geom, 0.0).expect("and serializes")
+    }
+
     /// Every edge once, as sorted vertex index pairs.
     pub fn edges(&self) -> Vec<(u32, u32)> {
         let mut edges: Vec<(u32, u32)> = self

@@ -9,7 +9,7 @@
 //! - [`EDGES`]: the edge values every kernel is fed (±0, ±inf, NaN, denormals, huge, tiny).
 //! - [`strategies`]: proptest strategies for vectors, edge values and grid-snapped scenes.
 
-pub mod closed;
+pub use kdray::closed;
 pub use kdray::f64ref;
 pub mod strategies;
 
