@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs the whole side-by-side comparison of DESIGN.md's benchmark protocol and prints one table
-# per mesh: kdray scalar / 4-wide / 8-wide, the bvh crate, and Embree 3 (rtcIntersect1/8) on the
+# per mesh: kdray scalar / 4-wide / 8-wide, the bvh crate, and Embree 3 (rtcIntersect1/8/1M) on the
 # same rays, one thread, median of --repeat runs.
 #
 # Builds with AVX2/FMA (-C target-cpu=native) into target/native so the baseline build in

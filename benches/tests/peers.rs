@@ -191,7 +191,7 @@ fn bvh_empty_scene_misses() {
 #[cfg(feature = "embree")]
 mod embree {
     use super::*;
-    use kdray_benches::peer_embree::EmbreeDevice;
+    use kdray_benches::peer_embree::{Coherence, EmbreeDevice};
 
     /// Embree's triangle test is not kdray's: u, v agree to rounding only (see `check`).
     const UV_TOL: f32 = 1e-5;
@@ -219,6 +219,17 @@ mod embree {
                 &scene.trace8(&rays),
                 UV_TOL,
             );
+            // Twice the rays, so that a stream crosses a batch boundary (STREAM_BATCH = 4096).
+            let twice = rays.repeat(2);
+            for coherence in [Coherence::Coherent, Coherence::Incoherent] {
+                check(
+                    "embree rtcIntersect1M",
+                    &mesh,
+                    &twice,
+                    &scene.trace1m(&twice, coherence),
+                    UV_TOL,
+                );
+            }
         }
     }
 
@@ -230,6 +241,8 @@ mod embree {
         assert!(scene.is_empty());
         assert!(scene.trace1(&rays).iter().all(|h| *h == Hit::MISS));
         assert!(scene.trace8(&rays).iter().all(|h| *h == Hit::MISS));
+        let stream = scene.trace1m(&rays, Coherence::Incoherent);
+        assert!(stream.iter().all(|h| *h == Hit::MISS));
     }
 
     #[test]

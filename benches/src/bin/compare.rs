@@ -1,7 +1,8 @@
 //! `kdray-compare MESH [--repeat N] [--size WxH]`: the benchmark protocol's side-by-side table.
 //!
 //! Builds kdray's kd-tree, the `bvh` crate's BVH and (with the `embree` feature) Embree 3's
-//! high-quality BVH over the same mesh, each single-threaded and timed; makes the protocol's
+//! high-quality BVH over the same mesh (traced by `rtcIntersect1`, `rtcIntersect8` and the stream
+//! call `rtcIntersect1M` with the coherent and the incoherent hint), each single-threaded and timed; makes the protocol's
 //! primary rays (framing pinhole, 2×4 tiles) and one cosine-weighted diffuse bounce per primary
 //! hit; traces both sets with every tracer on one thread, `--repeat` times, and prints the median
 //! Mrays/s, plus how many rays disagree with kdray's scalar traversal (a different `t`; ties at
@@ -127,7 +128,7 @@ fn main() {
 
     #[cfg(feature = "embree")]
     {
-        use kdray_benches::peer_embree::EmbreeDevice;
+        use kdray_benches::peer_embree::{Coherence, EmbreeDevice};
         let device = EmbreeDevice::new().expect("embree device");
         let start = Instant::now();
         let scene = device.build(tris).expect("embree build");
@@ -137,6 +138,14 @@ fn main() {
         });
         run("embree rtcIntersect8", None, &mut |r, h| {
             scene.trace8_into(r, h)
+        });
+        // The stream call with either hint; the peer's best mode for a kind of ray is the best
+        // of its rows.
+        run("embree rtcIntersect1M coherent", None, &mut |r, h| {
+            scene.trace1m_into(r, h, Coherence::Coherent)
+        });
+        run("embree rtcIntersect1M incoherent", None, &mut |r, h| {
+            scene.trace1m_into(r, h, Coherence::Incoherent)
         });
     }
 

@@ -68,6 +68,8 @@ pub const RTC_BUILD_QUALITY_HIGH: RTCBuildQuality = 2;
 // enum RTCIntersectContextFlags (rtcore_common.h)
 pub type RTCIntersectContextFlags = c_uint;
 pub const RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT: RTCIntersectContextFlags = 0;
+/// `RTC_INTERSECT_CONTEXT_FLAG_COHERENT`: the rays of a stream call are coherent (primary rays).
+pub const RTC_INTERSECT_CONTEXT_FLAG_COHERENT: RTCIntersectContextFlags = 1;
 
 /// `struct RTCRay` (rtcore_ray.h): one ray; `tfar` is overwritten with the hit distance.
 #[repr(C, align(16))]
@@ -227,6 +229,13 @@ unsafe extern "C" {
         scene: RTCScene,
         context: *mut RTCIntersectContext,
         rayhit: *mut RTCRayHit,
+    );
+    pub fn rtcIntersect1M(
+        scene: RTCScene,
+        context: *mut RTCIntersectContext,
+        rayhit: *mut RTCRayHit,
+        m: c_uint,
+        byte_stride: usize,
     );
     pub fn rtcIntersect8(
         valid: *const c_int,

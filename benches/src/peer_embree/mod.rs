@@ -5,7 +5,7 @@
 //! use kdray_benches::peer_embree::EmbreeDevice;
 //! let device = EmbreeDevice::new()?; // single-threaded, outside the timed build
 //! let scene = device.build(triangles)?; // time this: buffers + rtcCommitScene
-//! let hits = scene.trace8(rays); // or trace1
+//! let hits = scene.trace8(rays); // or trace1, or trace1m(rays, Coherence::Incoherent)
 //! # Ok(()) }
 //! ```
 //!
@@ -341,6 +341,21 @@ const NO_HIT: RTCHit = RTCHit {
     inst_id: [RTC_INVALID_GEOMETRY_ID; RTC_MAX_INSTANCE_LEVEL_COUNT],
 };
 
+/// The hint a stream call ([`EmbreeScene::trace1m`]) gives Embree through its intersect context's
+/// flags: `RTC_INTERSECT_CONTEXT_FLAG_COHERENT` lets Embree trace a stream's rays in packets,
+/// `…_INCOHERENT` (the default context's) one by one after sorting them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coherence {
+    Coherent,
+    Incoherent,
+}
+
+/// Rays a stream call hands Embree at once: [`EmbreeScene::trace1m`] converts the rays into
+/// `RTCRayHit`s this many at a time (80 bytes each, 320 KiB), so that its memory does not grow
+/// with the ray count. Embree itself works on much smaller groups inside a stream (it sorts by
+/// octant into packets of at most 64 rays), so a bigger batch would not change what it does.
+pub const STREAM_BATCH: usize = 4096;
+
 impl EmbreeScene<'_> {
     /// The number of triangles.
     pub fn len(&self) -> usize {
@@ -384,6 +399,66 @@ impl EmbreeScene<'_> {
                     prim: rh.hit.prim_id,
                     u: rh.hit.u,
                     v: rh.hit.v,
+                };
+            }
+        }
+    }
+
+    /// The closest hit of each ray through Embree's stream call `rtcIntersect1M`, [`STREAM_BATCH`]
+    /// rays a call, with the context flag `coherence`. Non-finite rays are misses and are passed as
+    /// rays with an empty interval (`tnear = 1`, `tfar = 0`), which Embree skips.
+    pub fn trace1m(&self, rays: &[Ray], coherence: Coherence) -> Vec<Hit> {
+        let mut hits = vec![Hit::MISS; rays.len()];
+        self.trace1m_into(rays, &mut hits, coherence);
+        hits
+    }
+
+    /// [`trace1m`](Self::trace1m) into a caller's buffer.
+    ///
+    /// # Panics
+    /// If `hits.len() != rays.len()`.
+    pub fn trace1m_into(&self, rays: &[Ray], hits: &mut [Hit], coherence: Coherence) {
+        assert_eq!(rays.len(), hits.len(), "one hit record per ray");
+        let mut ctx = rtc_init_intersect_context();
+        if coherence == Coherence::Coherent {
+            ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        }
+        let empty = Ray {
+            tmin: 1.0,
+            tmax: 0.0,
+            ..Ray::new(glam::Vec3::ZERO, glam::Vec3::Z)
+        };
+        let mut batch: Vec<RTCRayHit> = Vec::with_capacity(STREAM_BATCH.min(rays.len()));
+        for (chunk, out) in rays.chunks(STREAM_BATCH).zip(hits.chunks_mut(STREAM_BATCH)) {
+            batch.clear();
+            batch.extend(chunk.iter().map(|ray| RTCRayHit {
+                ray: rtc_ray(if ray.is_finite() { ray } else { &empty }),
+                hit: NO_HIT,
+            }));
+            // `chunk.len() <= STREAM_BATCH`, which fits a c_uint.
+            let m = chunk.len() as c_uint;
+            // SAFETY: the scene is committed and live; `batch` holds `m` initialized, 16-byte
+            // aligned RTCRayHit records laid out `size_of::<RTCRayHit>()` bytes apart, exclusively
+            // borrowed for the call; `ctx` is a valid context.
+            unsafe {
+                rtcIntersect1M(
+                    self.raw.as_ptr(),
+                    &mut ctx,
+                    batch.as_mut_ptr(),
+                    m,
+                    size_of::<RTCRayHit>(),
+                )
+            };
+            for (rh, o) in batch.iter().zip(out.iter_mut()) {
+                *o = if rh.hit.geom_id != RTC_INVALID_GEOMETRY_ID {
+                    Hit {
+                        t: rh.ray.tfar,
+                        prim: rh.hit.prim_id,
+                        u: rh.hit.u,
+                        v: rh.hit.v,
+                    }
+                } else {
+                    Hit::MISS
                 };
             }
         }
