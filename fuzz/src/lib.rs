@@ -1,5 +1,7 @@
 //! Shared checks of the fuzz targets (`fuzz_targets/`): what every accepted input must then do.
 
+pub mod traversal;
+
 use kdray::Geometry;
 use kdray::build::{BuildParams, build};
 use kdray::flat::serialize;
