@@ -102,30 +102,37 @@ pub fn check(data: &[u8]) {
 pub const CLEAR_BARY: f32 = 1e-3;
 /// Smallest `|cos|` between the ray and a "clear" triangle's normal: not grazing.
 pub const CLEAR_COS: f32 = 1e-2;
-/// Largest relative difference of the two modes' `t` on a clear hit; also the margin, relative
-/// to the primitive's scale along the ray, by which a clear hit keeps off `tmin` and `tmax`.
+/// Largest difference of the two modes' `t` on a clear hit, relative to the primitive's scale
+/// along the ray (`L/|d|`, see [`clear_scale`]); also the margin, in the same unit, by which a
+/// clear hit keeps off `tmin` and `tmax`.
 pub const AGREE_T: f32 = 1e-4;
 
-/// Whether `hit` (of `ray` in `scene`) is clear, i.e. both modes must find it and agree on it:
+/// `L/|d|` when `hit` (of `ray` in `scene`) is clear, i.e. both modes must find it and agree on
+/// its `t` to `AGREE_T · L/|d|`; `None` when it is not. `L` is the farthest distance from the
+/// origin to the primitive (a vertex; `|c − o| + r` for a sphere). Clear means:
 ///
 /// - a triangle hit farther than [`CLEAR_BARY`] (smallest barycentric) from every edge, and not
 ///   grazing (`|cos|` between the ray and the normal at least [`CLEAR_COS`]); a sphere hit is
 ///   never near an edge, and both modes use the same sphere kernel;
-/// - and, for both kinds, `t` at least `AGREE_T · L/|d|` from `tmin` and from `tmax`, with `L`
-///   the farthest distance from the origin to the primitive (a vertex; `|c − o| + r`).
+/// - and, for both kinds, `t` at least `AGREE_T · L/|d|` from `tmin` and from `tmax`.
 ///
-/// Why the margin: the two kernels round `t` differently (Möller–Trumbore divides `e2·q` by
-/// `det`; the watertight kernel shears the vertices first, Woop et al. 2013 §3.6), and the
-/// error of either is a few ULPs of `L/|d|`, the scale of the numbers it is computed from, not
-/// of `t` itself. A hit whose exact `t` is within that of `tmin` or `tmax` is a tie that each
-/// mode may break either way: the first finding (`fuzz/seeds/traversal/regression-origin-on-face`)
-/// is a ray starting on a box face, exact `t = 0 = tmin`, which Möller–Trumbore computes as
-/// exactly 0 and rejects (`t > tmin` fails) while the watertight kernel computes 8.7e-9 and
-/// accepts. Neither is wrong within its documented rounding, and neither mode promises exact
-/// `t`. For the clear triangles here (`|cos| ≥ 1e-2`, the scene's triangles not needles) the
-/// bound on either error is far below `AGREE_T · L/|d|` (measured: 1.7e-8 · L/|d| in that
-/// finding), so the margin excludes only such ties.
-pub fn is_clear(scene: &Scene, ray: &Ray, hit: &Hit) -> bool {
+/// Why `L/|d|` and not `t`: the two kernels round `t` differently (Möller–Trumbore divides
+/// `e2·q` by `det`; the watertight kernel shears the vertices relative to the origin first,
+/// Woop et al. 2013 §3.6), and the error of either is a few ULPs of the numbers it is computed
+/// from, i.e. of `L/|d|` (PBR 3rd ed. §3.9), not of `t` itself: `t` can be 0 (an origin on the
+/// triangle) while `L` is not. A hit always has `|t| ≤ L/|d|` (the hit point lies in the
+/// primitive's convex hull), so this is never tighter than `AGREE_T` relative to `t`. For the
+/// clear triangles of this scene (`|cos| ≥ 1e-2`, no needles) the bound on either error is far
+/// below `AGREE_T · L/|d|`.
+///
+/// Why the margin at `tmin` and `tmax`: a hit whose exact `t` is within rounding of an end of
+/// the range is a tie that each mode may break its own way. The first finding
+/// (`fuzz/seeds/traversal/regression-origin-on-face`) is a ray starting on a box face, exact
+/// `t = 0 = tmin`: Möller–Trumbore computes `t = 0` exactly and rejects it (`t > tmin` fails),
+/// the watertight kernel computes 8.7e-9 and accepts it. Neither is wrong within its rounding
+/// (1.7e-8 · L/|d| there), and neither mode promises exact `t`; spawned rays keep off their
+/// surface by an error bound (`kdray_core::spawn`), not by `tmin`.
+pub fn clear_scale(scene: &Scene, ray: &Ray, hit: &Hit) -> Option<f32> {
     let d = ray.dir.length();
     let (shape_clear, reach) = if hit.prim >= scene.tri_count() {
         let s = scene.sphere(hit.prim - scene.tri_count());
@@ -142,12 +149,14 @@ pub fn is_clear(scene: &Scene, ray: &Ray, hit: &Hit) -> bool {
             .fold(0.0, f32::max);
         (bary >= CLEAR_BARY && cos >= CLEAR_COS, reach)
     };
-    let margin = AGREE_T * reach / d;
-    shape_clear && hit.t - ray.tmin >= margin && ray.tmax - hit.t >= margin
+    let scale = reach / d;
+    let margin = AGREE_T * scale;
+    let clear = shape_clear && hit.t - ray.tmin >= margin && ray.tmax - hit.t >= margin;
+    clear.then_some(scale)
 }
 
 /// Panics unless fast and watertight mode agree on each finite ray of `rays` whose nearer hit
-/// (in either mode) is clear ([`is_clear`]): both hit, at `t` equal to [`AGREE_T`] relative.
+/// (in either mode) is clear ([`clear_scale`]): both hit, at `t` within `AGREE_T · L/|d|`.
 /// Near an edge, grazing, or at the ends of the ray's range they may differ (the first two are
 /// what watertight mode is for), so such rays are skipped, as are rays that both modes miss.
 pub fn fast_and_watertight_agree(scene: &Scene, rays: &[Ray]) {
@@ -155,15 +164,19 @@ pub fn fast_and_watertight_agree(scene: &Scene, rays: &[Ray]) {
         let fast = scene.intersect_in(Mode::Fast, ray);
         let tight = scene.intersect_in(Mode::Watertight, ray);
         let nearer = if fast.t <= tight.t { &fast } else { &tight };
-        if !nearer.is_hit() || !is_clear(scene, ray, nearer) {
+        let Some(scale) = nearer
+            .is_hit()
+            .then(|| clear_scale(scene, ray, nearer))
+            .flatten()
+        else {
             continue;
-        }
+        };
         assert!(
             fast.is_hit() && tight.is_hit(),
             "one mode misses a clear hit: fast {fast:?}, watertight {tight:?}, {ray:?}"
         );
         assert!(
-            (fast.t - tight.t).abs() <= AGREE_T * fast.t.abs().max(tight.t.abs()),
+            (fast.t - tight.t).abs() <= AGREE_T * scale,
             "the modes' t differ on a clear hit: fast {fast:?}, watertight {tight:?}, {ray:?}"
         );
     }

@@ -7,7 +7,11 @@
 //!   `t = 0` exactly and rejects it; the watertight kernel computes `t = 8.7e-9` (its shear
 //!   rounds) and accepts it. The check counted that as "one mode misses a clear hit"; a hit
 //!   within rounding of `tmin` or `tmax` is a tie either mode may break, and is no longer clear
-//!   (see [`kdray_fuzz::traversal::is_clear`]).
+//!   (see [`kdray_fuzz::traversal::clear_scale`]).
+//! - `regression-t-zero`: a ray starting on the same face, range `(-4, 4)`: both modes hit at
+//!   exact `t = 0`, fast mode at `-0.0`, watertight mode at `-6e-8`; the check compared `t`
+//!   relative to `t` itself, which is 0. The kernels' `t` errors scale with the primitive's
+//!   distance from the origin (`L/|d|`), which is what the check now compares against.
 
 use std::path::Path;
 
