@@ -8,10 +8,12 @@
 //! - [`Lcg`]: a fixed pseudo-random sequence, so the statistical tests are reproducible.
 //! - [`EDGES`]: the edge values every kernel is fed (±0, ±inf, NaN, denormals, huge, tiny).
 //! - [`strategies`]: proptest strategies for vectors, edge values and grid-snapped scenes.
+//! - [`wt_bound`]: what the watertight kernel must do on a ray and triangle, from its error bound.
 
 pub use kdray::closed;
 pub use kdray::f64ref;
 pub mod strategies;
+pub mod wt_bound;
 
 /// Edge values for kernel inputs, in the spirit of wide's `tests/simd_float.rs`: signed zeros,
 /// infinities, NaN, the smallest denormal and a mid-range one, the smallest normal, tiny and huge
