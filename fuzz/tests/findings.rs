@@ -1,6 +1,7 @@
 //! What the `traversal` target found, replayed: every `fuzz/seeds/traversal/regression-*` file
 //! (kept there so that the fuzzer starts from it too) goes through the target's checks
-//! ([`kdray_fuzz::traversal::check`]), which must pass.
+//! ([`kdray_fuzz::traversal::check`]), which must pass. (`fuzz/run.sh`, in CI too, replays them as
+//! well: libFuzzer runs every seed file before it mutates.)
 //!
 //! - `regression-origin-on-face`: a ray starting on the box face `y = 2` and leaving it, `tmin =
 //!   0`: the exact hit is at `t = 0 = tmin`, outside the open range. Möller–Trumbore computes
