@@ -666,6 +666,46 @@ impl<'a> Scene<'a> {
         stored_vertices(&self.tris[i as usize])
     }
 
+    /// Asks the cache for node `i` ahead of its use ([`crate::prefetch`]); only a hint.
+    #[inline(always)]
+    pub(crate) fn prefetch_node(&self, i: u32) {
+        if let Some(n) = self.nodes.get(i as usize) {
+            crate::prefetch::t0(n);
+        }
+    }
+
+    /// Asks the cache for what a leaf's test reads first: the triangle of a one-primitive leaf,
+    /// or the first word of a longer leaf's index list (whose triangles are known only once it has
+    /// arrived, see [`Scene::prefetch_prims`]). Returns whether the leaf has an index list.
+    #[inline(always)]
+    pub(crate) fn prefetch_leaf(&self, node: &Node) -> bool {
+        match node.prim_count() {
+            0 => false,
+            1 => {
+                self.prefetch_prims(&[node.payload()]);
+                false
+            }
+            _ => {
+                if let Some(w) = self.indices.get(node.payload() as usize) {
+                    crate::prefetch::t0(w);
+                }
+                true
+            }
+        }
+    }
+
+    /// Asks the cache for the triangle records of `prims` (a 40-byte record may straddle two
+    /// lines: both ends are asked for). Spheres are not prefetched.
+    #[inline(always)]
+    pub(crate) fn prefetch_prims(&self, prims: &[u32]) {
+        for &p in prims {
+            if let Some(t) = self.tris.get(p as usize) {
+                crate::prefetch::t0(&t[0]);
+                crate::prefetch::t0(&t[stride::TRIANGLE - 1]);
+            }
+        }
+    }
+
     /// The geometric normal of primitive `prim` at a point `p` on it, not normalized: `e1 × e2`
     /// for a triangle ([`Triangle::geometric_normal`]), `(p − c) / R` for a sphere
     /// ([`Sphere::normal`]). Zero for a degenerate triangle.

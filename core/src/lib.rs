@@ -23,7 +23,10 @@
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
 //! - [`camera`]: pinhole, the seed's fisheye and parallel cameras, its thick lens and lens array.
 //! - [`format`], [`node`]: the flat scene format and its validation.
-//! - [`traverse`]: scalar closest-hit and any-hit traversal.
+//! - [`traverse`]: scalar closest-hit and any-hit traversal; [`walk`]: its walk as resumable
+//!   steps over an explicit state, shared by the one-ray walk and the interleaved one.
+//! - [`stream`]: ray streams — many rays in one call, sorted into packets and interleaved single
+//!   rays, answers in input order; [`prefetch`]: the cache hint the interleaved walk issues.
 //! - [`render`]: the render kernel, a path tracer writing into a caller's buffer.
 //! - [`description`]: the render description (camera, settings, materials, lights) that a target
 //!   reads next to the scene's words; [`words`]: bytes (`include_bytes!`, a fetch) viewed as
@@ -47,14 +50,17 @@ pub mod isa;
 pub mod math;
 pub mod node;
 pub mod optics;
+pub mod prefetch;
 pub mod ray;
 pub mod render;
 pub mod sampling;
 pub mod simd;
 pub mod spawn;
 pub mod sphere;
+pub mod stream;
 pub mod traverse;
 pub mod triangle;
+pub mod walk;
 pub mod watertight;
 pub mod words;
 

@@ -19,9 +19,9 @@
 //! when the closest candidate lies before its entry; so the reported hit is always the closest
 //! (the argument of pbrt-v3's `ray.tMax < tMin` test, which stops the whole walk instead).
 
-use crate::format::{MAX_DEPTH, Scene};
+use crate::format::Scene;
 use crate::ray::{Hit, Ray};
-use crate::watertight::{self, Shear};
+use crate::walk::{Closest, Occlusion, shear_for};
 use glam::Vec3;
 
 /// `γ₃ = 3ε / (1 − 3ε)`, with ε half an f32 ULP (PBR 3rd ed., §3.9.1).
@@ -204,9 +204,6 @@ pub fn entry_with_slack(tmin: f32) -> f32 {
     tmin - tmin.abs() * ENTRY_SLACK
 }
 
-/// One pending far child: node index and its `(tmin, tmax)`.
-type StackItem = (u32, f32, f32);
-
 impl Scene<'_> {
     /// The closest hit along `ray` in `(ray.tmin, ray.tmax)`, or [`Hit::MISS`], in fast mode.
     /// Picks the kernel monomorphized for the scene's contents.
@@ -239,168 +236,18 @@ impl Scene<'_> {
         self.intersect_prim_sheared::<C>(prim, ray, &shear_for::<C>(ray))
     }
 
-    /// [`Scene::intersect_prim`] with the ray's [`Shear`] known (unused unless watertight).
-    #[inline(always)]
-    fn intersect_prim_sheared<C: Contents>(
-        &self,
-        prim: u32,
-        ray: &Ray,
-        shear: &Shear,
-    ) -> Option<(f32, f32, f32)> {
-        let n_tris = self.tri_count();
-        if C::SPHERES && (!C::TRIANGLES || prim >= n_tris) {
-            return self
-                .sphere(prim - n_tris)
-                .intersect(ray)
-                .map(|t| (t, 0.0, 0.0));
-        }
-        if C::WATERTIGHT {
-            return watertight::intersect_sheared(&self.vertices(prim), ray, shear);
-        }
-        let (tri, min_det2) = self.prepared_triangle(prim);
-        tri.intersect_prepared(ray, min_det2)
-    }
-
     /// [`Scene::intersect`] for a fixed [`Contents`]; the caller promises the scene holds no other
     /// kind of primitive (it would be tested as the wrong kind, never out of bounds).
     pub fn intersect_with<C: Contents>(&self, ray: &Ray) -> Hit {
-        let mut best = Hit::MISS;
-        let mut query = *ray;
-        let shear = shear_for::<C>(ray);
-        self.walk::<C, _>(ray, |scene, prims, _| {
-            for &prim in prims {
-                if let Some((t, u, v)) = scene.intersect_prim_sheared::<C>(prim, &query, &shear) {
-                    query.tmax = t;
-                    best = Hit { t, prim, u, v };
-                }
-            }
-            (query.tmax, false)
-        });
-        best
+        let mut query = Closest::new::<C>(ray);
+        self.walk::<C, _>(ray, &mut query);
+        query.hit()
     }
 
     /// [`Scene::occluded`] for a fixed [`Contents`].
     pub fn occluded_with<C: Contents>(&self, ray: &Ray) -> bool {
-        let mut found = false;
-        let shear = shear_for::<C>(ray);
-        self.walk::<C, _>(ray, |scene, prims, _| {
-            found = prims.iter().any(|&prim| {
-                scene
-                    .intersect_prim_sheared::<C>(prim, ray, &shear)
-                    .is_some()
-            });
-            (ray.tmax, found)
-        });
-        found
-    }
-
-    /// The front-to-back walk shared by both queries. `visit(scene, leaf_prims, (tmin, tmax))`
-    /// returns the closest candidate's `t` so far and whether to stop at once.
-    ///
-    /// With [`Contents::CONSERVATIVE`] (watertight mode) every split-plane distance is [`widen`]ed: the near child's
-    /// interval ends at the upper bound of the exact distance, the far child's starts at the lower
-    /// bound, and each child is entered if the bracket reaches its side. Every interval then
-    /// contains the exact one (by induction from the root box, clipped the same way), so a cell
-    /// the ray really passes through, if only at one point (a vertex on two split planes), is never
-    /// skipped. Without it, the two rounded distances of planes that the ray crosses at one point
-    /// can cross over, and the cell between them is dropped (docs/ROBUSTNESS.md counts the rays
-    /// this loses).
-    #[inline(always)]
-    fn walk<C: Contents, F>(&self, ray: &Ray, mut visit: F)
-    where
-        F: FnMut(&Self, &[u32], (f32, f32)) -> (f32, bool),
-    {
-        if !ray.is_finite() {
-            return;
-        }
-        let clipped = if C::CONSERVATIVE {
-            clip_to_box_in::<true>(ray, self.bounds())
-        } else {
-            clip_to_box(ray, self.bounds())
-        };
-        let Some((mut tmin, mut tmax)) = clipped else {
-            return;
-        };
-        let inv_dir = ray.dir.recip();
-        let mut best_t = ray.tmax;
-        let mut stack: heapless::Vec<StackItem, MAX_DEPTH> = heapless::Vec::new();
-        let mut index = 0u32;
-        loop {
-            let node = self.node(index);
-            // A node entered beyond the closest hit so far is skipped, not a reason to stop: a
-            // ray lying in a split plane pushes both children with the same interval, so the
-            // stack is not always ordered by entry distance. The entry is lowered by
-            // `ENTRY_SLACK` first, see there.
-            let beyond = best_t < entry_with_slack(tmin);
-            if beyond || node.is_leaf() {
-                if !beyond {
-                    let prims = self.leaf_prims(&node);
-                    let (t, stop) = visit(self, prims.as_slice(), (tmin, tmax));
-                    best_t = t;
-                    if stop {
-                        return;
-                    }
-                }
-                match stack.pop() {
-                    Some((next, a, b)) => (index, tmin, tmax) = (next, a, b),
-                    None => return,
-                }
-                continue;
-            }
-            let axis = node.axis();
-            let t_plane = (node.split() - ray.origin[axis]) * inv_dir[axis];
-            // The near child ends, the far child starts, at the plane (its bracket, if watertight).
-            let (far_start, near_end) = if C::CONSERVATIVE {
-                widen(t_plane)
-            } else {
-                (t_plane, t_plane)
-            };
-            // Near and far by the direction's sign (the sign of 1/d, so −0 counts as negative):
-            // for d > 0 the below child holds the ray for t < t_plane. A NaN t_plane (origin on
-            // the plane, direction parallel to it) visits both children with the same interval.
-            let [below_empty, above_empty] = node.empty_children();
-            let ((near, near_empty), (far, far_empty)) = if inv_dir[axis] < 0.0 {
-                ((node.above_child(), above_empty), (index + 1, below_empty))
-            } else {
-                ((index + 1, below_empty), (node.above_child(), above_empty))
-            };
-            // An empty child is never entered: the split only clips the interval.
-            let visit_near = !(near_end < tmin) && !near_empty;
-            let visit_far = !(far_start > tmax) && !far_empty;
-            // Validation bounds the tree's depth by MAX_DEPTH, and at most one item per level is
-            // pending, so the push cannot fail.
-            match (visit_near, visit_far) {
-                (true, true) => {
-                    let _ = stack.push((far, tmin.max(far_start), tmax));
-                    tmax = tmax.min(near_end);
-                    index = near;
-                }
-                (true, false) => {
-                    tmax = tmax.min(near_end);
-                    index = near;
-                }
-                (false, true) => {
-                    tmin = tmin.max(far_start);
-                    index = far;
-                }
-                (false, false) => match stack.pop() {
-                    Some((next, a, b)) => (index, tmin, tmax) = (next, a, b),
-                    None => return,
-                },
-            }
-        }
-    }
-}
-
-/// The ray's [`Shear`] when `C` is watertight; otherwise a constant that nothing reads.
-#[inline(always)]
-fn shear_for<C: Contents>(ray: &Ray) -> Shear {
-    if C::WATERTIGHT {
-        Shear::new(ray.dir)
-    } else {
-        Shear {
-            k: [0, 1, 2],
-            s: [0.0; 3],
-        }
+        let mut query = Occlusion::new::<C>(ray);
+        self.walk::<C, _>(ray, &mut query);
+        query.found()
     }
 }

@@ -3,6 +3,8 @@
 //!
 //! - scalar, 4-wide and 8-wide packets must agree exactly (the same `t` bits; a different
 //!   primitive only as a tie at that `t`), for closest hits and for occlusion, whatever the rays;
+//!   so must the interleaved single-ray walk and the ray-stream API (bit for bit, ties included,
+//!   where no packet traces; the rays, up to 64, are one stream);
 //! - fast and watertight mode must agree on rays whose nearer hit is not near an edge, not
 //!   grazing and not at the ends of the ray's range (both hit, `t` within 1e-4 relative).
 //!

@@ -94,7 +94,8 @@ fn ray_of(b: &[u8]) -> Ray {
 pub fn check(data: &[u8]) {
     let scene = Scene::from_words(scene_words()).expect("the fixed scene validates");
     let rays = rays(data);
-    crate::packets_agree_with_scalar(&scene, &rays);
+    let scalar = crate::packets_agree_with_scalar(&scene, &rays);
+    crate::stream_agrees_with_scalar(&scene, &rays, &scalar);
     fast_and_watertight_agree(&scene, &rays);
 }
 

@@ -72,10 +72,12 @@ fn build_info_trace_round_trip() {
     let hits = d.join("hits.bin");
     // Every input kind, packet width and mode gives the same hits (4 rays: one partial packet of
     // 8).
-    for (input, packet, mode) in [&kdt, &mesh]
+    // Also through the stream API and the interleaved single-ray walk.
+    for (input, packet, mode, how) in [&kdt, &mesh]
         .into_iter()
         .flat_map(|i| ["1", "4", "8"].map(|p| (i, p)))
         .flat_map(|(i, p)| ["fast", "watertight"].map(|m| (i, p, m)))
+        .flat_map(|(i, p, m)| [&[][..], &["--stream"], &["--in-flight", "8"]].map(|h| (i, p, m, h)))
     {
         let mut args = vec![
             "trace",
@@ -94,6 +96,7 @@ fn build_info_trace_round_trip() {
         if mode == "watertight" {
             args.push("--watertight");
         }
+        args.extend(how);
         let out = kdray(&args);
         assert!(
             out.status.success(),
@@ -158,8 +161,10 @@ fn hits_report_input_order() {
     let rays_file = d.join("rays.bin");
     std::fs::write(&rays_file, ray_bytes(&rays)).unwrap();
     let hits = d.join("hits.bin");
-    for packet in ["1", "4", "8"] {
-        let out = kdray(&[
+    // The stream reorders rays internally: its hits too must come back in input order.
+    let hows: [&[&str]; 4] = [&[], &["--stream"], &["--stream", "--in-flight", "16"], &["--in-flight", "4"]];
+    for (packet, how) in ["1", "4", "8"].into_iter().flat_map(|p| hows.map(|h| (p, h))) {
+        let mut args = vec![
             "trace",
             s(&kdt),
             "--rays",
@@ -168,13 +173,15 @@ fn hits_report_input_order() {
             s(&hits),
             "--packet",
             packet,
-        ]);
+        ];
+        args.extend(how);
+        let out = kdray(&args);
         assert!(out.status.success());
         let b = std::fs::read(&hits).unwrap();
         let f = |i: usize| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
         let u = |i: usize| u32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap());
         for i in 0..n {
-            assert_eq!(u(4 * i + 1), i as u32, "packet {packet}: ray {i}");
+            assert_eq!(u(4 * i + 1), i as u32, "packet {packet} {how:?}: ray {i}");
             assert_eq!(f(4 * i), 4.0);
             assert!((f(4 * i + 2) - 0.25).abs() < 1e-5 && (f(4 * i + 3) - 0.5).abs() < 1e-5);
         }
@@ -249,6 +256,14 @@ fn usage_errors_exit_2() {
     assert_eq!(
         kdray(&[
             "trace", "x.tri", "--rays", "r", "--out", "h", "--repeat", "0"
+        ])
+        .status
+        .code(),
+        Some(2)
+    );
+    assert_eq!(
+        kdray(&[
+            "trace", "x.tri", "--rays", "r", "--out", "h", "--in-flight", "3"
         ])
         .status
         .code(),

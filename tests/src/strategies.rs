@@ -3,6 +3,7 @@
 use crate::EDGES;
 use glam::Vec3;
 use kdray::Geometry;
+use kdray_core::Ray;
 use kdray::build::{BuildParams, build};
 use kdray::flat::serialize;
 use proptest::prelude::*;
@@ -106,4 +107,41 @@ pub fn scene_words(geom: &Geometry, intersect_cost: f64) -> Vec<u32> {
     };
     let tree = build(geom, &params, None).expect("finite geometry builds");
     serialize(&tree, geom, 0.0).expect("small trees fit the format")
+}
+
+/// A direction component: mostly uniform in `[-1, 1)`, sometimes a zero of either sign.
+fn component() -> impl Strategy<Value = f32> {
+    prop_oneof![4 => -1.0f32..1.0, 1 => Just(0.0f32), 1 => Just(-0.0f32)]
+}
+
+/// A packet's rays (1 to 8): coherent (one origin region, directions near one), or arbitrary (mixed
+/// signs, grid origins on split planes, NaN rays, negative tmin).
+pub fn packet_rays() -> impl Strategy<Value = Vec<Ray>> {
+    let coherent = (
+        grid_point(),
+        (component(), component(), component()),
+        prop::collection::vec((grid_point(), -0.2f32..0.2), 1..9),
+    )
+        .prop_filter_map("zero direction", |(o, (x, y, z), jitter)| {
+            let d = Vec3::new(x, y, z).try_normalize()?;
+            Some(
+                jitter
+                    .iter()
+                    .map(|(p, s)| Ray::new(o + 0.1 * *p, (d + Vec3::splat(*s)).normalize_or(d)))
+                    .collect::<Vec<_>>(),
+            )
+        });
+    let any_ray = (
+        grid_point(),
+        (component(), component(), component()),
+        prop_oneof![
+            4 => Just((0.0f32, f32::INFINITY)),
+            1 => (-2.0f32..2.0, 0.5f32..6.0).prop_map(|(a, b)| (a, a + b)),
+            1 => Just((f32::NAN, f32::INFINITY)),
+        ],
+    )
+        .prop_filter_map("zero direction", |(o, (x, y, z), (t0, t1))| {
+            Some(Ray::new(o, Vec3::new(x, y, z).try_normalize()?).with_range(t0, t1))
+        });
+    prop_oneof![coherent, prop::collection::vec(any_ray, 1..9)]
 }

@@ -7,44 +7,8 @@ use glam::Vec3;
 use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::traverse::{Mixed, Mode, Watertight};
 use kdray_core::{Hit, Ray, Scene};
-use kdray_tests::strategies::{grid_geometry, grid_point, scene_words};
+use kdray_tests::strategies::{grid_geometry, packet_rays as rays, scene_words};
 use proptest::prelude::*;
-
-fn component() -> impl Strategy<Value = f32> {
-    prop_oneof![4 => -1.0f32..1.0, 1 => Just(0.0f32), 1 => Just(-0.0f32)]
-}
-
-/// A packet's rays: coherent (one origin region, directions near one), or arbitrary (mixed
-/// signs, grid origins on split planes, NaN rays, negative tmin).
-fn rays() -> impl Strategy<Value = Vec<Ray>> {
-    let coherent = (
-        grid_point(),
-        (component(), component(), component()),
-        prop::collection::vec((grid_point(), -0.2f32..0.2), 1..9),
-    )
-        .prop_filter_map("zero direction", |(o, (x, y, z), jitter)| {
-            let d = Vec3::new(x, y, z).try_normalize()?;
-            Some(
-                jitter
-                    .iter()
-                    .map(|(p, s)| Ray::new(o + 0.1 * *p, (d + Vec3::splat(*s)).normalize_or(d)))
-                    .collect::<Vec<_>>(),
-            )
-        });
-    let any_ray = (
-        grid_point(),
-        (component(), component(), component()),
-        prop_oneof![
-            4 => Just((0.0f32, f32::INFINITY)),
-            1 => (-2.0f32..2.0, 0.5f32..6.0).prop_map(|(a, b)| (a, a + b)),
-            1 => Just((f32::NAN, f32::INFINITY)),
-        ],
-    )
-        .prop_filter_map("zero direction", |(o, (x, y, z), (t0, t1))| {
-            Some(Ray::new(o, Vec3::new(x, y, z).try_normalize()?).with_range(t0, t1))
-        });
-    prop_oneof![coherent, prop::collection::vec(any_ray, 1..9)]
-}
 
 macro_rules! packet_matches_scalar {
     ($name:ident, $lanes:ty, $w:expr, $mode:expr, $contents:ty) => {

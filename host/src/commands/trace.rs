@@ -5,6 +5,7 @@ use super::{parse_threads, pool};
 use kdray::error::{Error, Result};
 use kdray::{files, rays};
 use kdray_core::simd::{f32x4, f32x8};
+use kdray_core::stream::{self, InFlight, Packets};
 use kdray_core::traverse::Mode;
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
@@ -25,6 +26,17 @@ pub struct TraceArgs {
     /// Rays per packet: 1 (single rays), or 4 or 8 consecutive rays traced together.
     #[arg(long, default_value_t = 1, value_parser = parse_packet)]
     pub packet: u32,
+    /// Trace through the core's ray-stream API (`kdray_core::stream`): coherent runs as packets of
+    /// `--packet` rays (1: no packets), the rest sorted by direction octant, origin and direction,
+    /// its coherent runs as packets and the others as interleaved single rays. Hits are the same;
+    /// the time includes the sorting.
+    #[arg(long)]
+    pub stream: bool,
+    /// Single-ray walks in flight at once, interleaved so that their memory loads overlap: 1, 4,
+    /// 8 or 16 (default: 1 for `--packet 1`, the plain walk; 8 for `--stream`). Ignored by
+    /// `--packet 4/8` without `--stream`.
+    #[arg(long, value_parser = parse_in_flight)]
+    pub in_flight: Option<InFlight>,
     /// Worker threads (default: all cores; at most 16 per core).
     #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
@@ -43,14 +55,51 @@ pub struct TraceArgs {
 /// Rays per parallel work item: large enough to amortize scheduling, small enough to balance.
 const CHUNK: usize = 4096;
 
-/// Traces `rays` into `hits` (same length, pre-filled with misses) in `mode`: single rays, or
-/// packets of `packet` consecutive rays.
-fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], packet: u32, mode: Mode) {
+/// How `kdray trace` traces: packets of consecutive rays, single rays (one or several walks in
+/// flight), or the stream API.
+#[derive(Clone, Copy, Debug)]
+struct Tracer {
+    packet: u32,
+    stream: bool,
+    in_flight: InFlight,
+    mode: Mode,
+}
+
+/// Traces `rays` into `hits` (same length, pre-filled with misses).
+fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
+    if how.stream {
+        // One stream per thread's share (in a few pieces, to balance): the longer the stream, the
+        // more coherent runs its sort finds.
+        let threads = rayon::current_num_threads().max(1);
+        let chunk = rays.len().div_ceil(4 * threads).max(CHUNK);
+        let config = stream::Config {
+            mode: how.mode,
+            packets: match how.packet {
+                4 => Packets::Four,
+                8 => Packets::Eight,
+                _ => Packets::Off,
+            },
+            in_flight: how.in_flight,
+            ..stream::Config::default()
+        };
+        hits.par_chunks_mut(chunk)
+            .zip(rays.par_chunks(chunk))
+            .for_each(|(h, r)| {
+                let mut scratch = vec![0u64; stream::scratch_words(r.len())];
+                // The lengths match by construction, so this cannot fail.
+                let _ = stream::intersect(scene, &config, r, h, &mut scratch);
+            });
+        return;
+    }
+    let mode = how.mode;
     hits.par_chunks_mut(CHUNK)
         .zip(rays.par_chunks(CHUNK))
-        .for_each(|(h, r)| match packet {
+        .for_each(|(h, r)| match how.packet {
             4 => rays::trace_packets_in::<f32x4>(scene, mode, r, h),
             8 => rays::trace_packets_in::<f32x8>(scene, mode, r, h),
+            _ if how.in_flight != InFlight::One => {
+                let _ = stream::intersect_interleaved(scene, mode, how.in_flight, r, h);
+            }
             _ => rays::trace_scalar_in(scene, mode, r, h),
         });
 }
@@ -68,11 +117,21 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
     } else {
         Mode::Fast
     };
+    let how = Tracer {
+        packet: args.packet,
+        stream: args.stream,
+        in_flight: args.in_flight.unwrap_or(if args.stream {
+            stream::Config::default().in_flight
+        } else {
+            InFlight::One
+        }),
+        mode,
+    };
     let mut best = f64::INFINITY;
     for _ in 0..args.repeat {
         let start = Instant::now();
         pool.install(|| {
-            trace_all(&scene, &rays, &mut hits, args.packet, mode);
+            trace_all(&scene, &rays, &mut hits, how);
             hits.par_chunks_mut(CHUNK)
                 .for_each(|h| rays::to_input_ids(&scene, h));
         });
@@ -86,7 +145,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         0.0
     };
     println!(
-        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={}",
+        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} in_flight={}",
         best * 1e3,
         rays.len(),
         args.packet,
@@ -97,6 +156,8 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         } else {
             "fast"
         },
+        u8::from(args.stream),
+        in_flight_count(how.in_flight),
     );
     Ok(())
 }
@@ -120,6 +181,27 @@ pub fn parse_packet(s: &str) -> core::result::Result<u32, String> {
     }
 }
 
+/// Parses `--in-flight`: the numbers of interleaved walks the core offers.
+pub fn parse_in_flight(s: &str) -> core::result::Result<InFlight, String> {
+    match s {
+        "1" => Ok(InFlight::One),
+        "4" => Ok(InFlight::Four),
+        "8" => Ok(InFlight::Eight),
+        "16" => Ok(InFlight::Sixteen),
+        _ => Err(format!("walks in flight must be 1, 4, 8 or 16, got '{s}'")),
+    }
+}
+
+/// The number `in_flight` stands for.
+fn in_flight_count(in_flight: InFlight) -> u32 {
+    match in_flight {
+        InFlight::One => 1,
+        InFlight::Four => 4,
+        InFlight::Eight => 8,
+        InFlight::Sixteen => 16,
+    }
+}
+
 pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64) -> Result<()> {
     files::check_output(out)?;
     let (words, _) = load_scene_words(input, &BuildArgs::default())?;
@@ -137,7 +219,13 @@ pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64
         RayKind::Primary => primary,
         RayKind::Diffuse => {
             let mut hits = vec![Hit::MISS; primary.len()];
-            trace_all(&scene, &primary, &mut hits, 8, Mode::Fast);
+            let how = Tracer {
+                packet: 8,
+                stream: false,
+                in_flight: InFlight::One,
+                mode: Mode::Fast,
+            };
+            trace_all(&scene, &primary, &mut hits, how);
             rays::diffuse_rays(&scene, &primary, &hits, seed)
         }
     };

@@ -1,0 +1,229 @@
+//! Ray streams: many rays traced in one call, answers in input order.
+//!
+//! The caller hands over a slice of rays, the answers' slice and scratch memory it owns
+//! ([`scratch_words`] `u64`s for `n` rays); nothing is allocated. Inside, the stream
+//! 1. traces each run of consecutive input rays that is coherent (one direction octant,
+//!    directions within a cone, origins close: [`Coherence`]) as one packet — a camera's tiles
+//!    stay packets without paying for a sort;
+//! 2. sorts the other rays by octant, origin and direction ([`order`]), and traces the coherent
+//!    runs of that order as packets;
+//! 3. traces what is left as single rays, [`InFlight`] walks at once, interleaved so that their
+//!    memory loads overlap ([`interleave`]).
+//!
+//! Every answer equals the single-ray walk's ([`Scene::intersect_in`], [`Scene::occluded_in`]):
+//! the interleaved walk runs the same steps, and the packet walks match it lane by lane (the same
+//! `t` bits; where two primitives tie at exactly that `t`, the packet may report either, as the
+//! packet walks do everywhere). With [`Packets::Off`] the answers are the single-ray walk's
+//! bit for bit, ties included.
+//!
+//! Errors (slices of the wrong length, too little scratch) are returned, never a panic.
+
+pub(crate) mod interleave;
+pub mod order;
+mod trace;
+
+pub use order::Coherence;
+
+use crate::format::Scene;
+use crate::ray::{Hit, Ray};
+use crate::simd::{f32x4, f32x8};
+use crate::traverse::{Mode, by_contents};
+use trace::{AnyHits, Answer, ClosestHits};
+
+/// `u64` words of scratch a stream of `rays` rays needs: a sort key and an index per ray.
+pub const fn scratch_words(rays: usize) -> usize {
+    2 * rays
+}
+
+/// Why a stream call refused its arguments (nothing was traced).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StreamError {
+    /// The answers' slice is not as long as the rays'.
+    Length { rays: usize, answers: usize },
+    /// The scratch holds fewer words than [`scratch_words`] asks for.
+    Scratch { needed: usize, given: usize },
+}
+
+impl core::fmt::Display for StreamError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Length { rays, answers } => {
+                write!(f, "{rays} rays but room for {answers} answers")
+            }
+            Self::Scratch { needed, given } => {
+                write!(f, "scratch of {given} words, {needed} needed")
+            }
+        }
+    }
+}
+
+/// How many single-ray walks are in flight at once.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InFlight {
+    /// One: the plain walk, no prefetching.
+    One,
+    Four,
+    #[default]
+    Eight,
+    Sixteen,
+}
+
+/// The packets a stream forms from coherent runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Packets {
+    /// None: every ray is a single ray (sorted, interleaved).
+    Off,
+    Four,
+    #[default]
+    Eight,
+}
+
+/// How a stream traces.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Config {
+    pub mode: Mode,
+    pub packets: Packets,
+    pub in_flight: InFlight,
+    pub coherence: Coherence,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            mode: Mode::Fast,
+            packets: Packets::default(),
+            in_flight: InFlight::default(),
+            coherence: Coherence {
+                min_cos: 0.9,
+                max_origin: 0.05,
+            },
+        }
+    }
+}
+
+/// Closest hits of `rays` into `hits` (same length), `in_flight` walks at a time, in input order:
+/// the single-ray walk's hits, bit for bit.
+///
+/// # Errors
+/// [`StreamError::Length`] if `hits` is not as long as `rays`.
+pub fn intersect_interleaved(
+    scene: &Scene,
+    mode: Mode,
+    in_flight: InFlight,
+    rays: &[Ray],
+    hits: &mut [Hit],
+) -> Result<(), StreamError> {
+    check_length(rays, hits)?;
+    interleaved::<ClosestHits>(scene, mode, in_flight, rays, hits);
+    Ok(())
+}
+
+/// Occlusion of `rays` into `occluded` (same length), `in_flight` walks at a time.
+///
+/// # Errors
+/// [`StreamError::Length`] if `occluded` is not as long as `rays`.
+pub fn occluded_interleaved(
+    scene: &Scene,
+    mode: Mode,
+    in_flight: InFlight,
+    rays: &[Ray],
+    occluded: &mut [bool],
+) -> Result<(), StreamError> {
+    check_length(rays, occluded)?;
+    interleaved::<AnyHits>(scene, mode, in_flight, rays, occluded);
+    Ok(())
+}
+
+/// Closest hits of the stream `rays` into `hits` (same length, input order).
+///
+/// # Errors
+/// [`StreamError::Length`] if `hits` is not as long as `rays`; [`StreamError::Scratch`] if
+/// `scratch` is shorter than [`scratch_words`]`(rays.len())`.
+pub fn intersect(
+    scene: &Scene,
+    config: &Config,
+    rays: &[Ray],
+    hits: &mut [Hit],
+    scratch: &mut [u64],
+) -> Result<(), StreamError> {
+    run::<ClosestHits>(scene, config, rays, hits, scratch)
+}
+
+/// Occlusion of the stream `rays` into `occluded` (same length, input order).
+///
+/// # Errors
+/// As [`intersect`].
+pub fn occluded(
+    scene: &Scene,
+    config: &Config,
+    rays: &[Ray],
+    occluded: &mut [bool],
+    scratch: &mut [u64],
+) -> Result<(), StreamError> {
+    run::<AnyHits>(scene, config, rays, occluded, scratch)
+}
+
+fn check_length<T>(rays: &[Ray], answers: &[T]) -> Result<(), StreamError> {
+    if rays.len() == answers.len() {
+        Ok(())
+    } else {
+        Err(StreamError::Length {
+            rays: rays.len(),
+            answers: answers.len(),
+        })
+    }
+}
+
+fn interleaved<A: Answer>(
+    scene: &Scene,
+    mode: Mode,
+    in_flight: InFlight,
+    rays: &[Ray],
+    out: &mut [A::Out],
+) {
+    by_contents!(scene, mode, |C| match in_flight {
+        InFlight::One => trace::interleaved::<A, C, 1>(scene, rays, out),
+        InFlight::Four => trace::interleaved::<A, C, 4>(scene, rays, out),
+        InFlight::Eight => trace::interleaved::<A, C, 8>(scene, rays, out),
+        InFlight::Sixteen => trace::interleaved::<A, C, 16>(scene, rays, out),
+    })
+}
+
+fn run<A: Answer>(
+    scene: &Scene,
+    config: &Config,
+    rays: &[Ray],
+    out: &mut [A::Out],
+    scratch: &mut [u64],
+) -> Result<(), StreamError> {
+    check_length(rays, out)?;
+    let needed = scratch_words(rays.len());
+    let pairs = match scratch.get_mut(..needed) {
+        Some(s) => s.as_chunks_mut::<2>().0,
+        None => {
+            return Err(StreamError::Scratch {
+                needed,
+                given: scratch.len(),
+            });
+        }
+    };
+    let rule = &config.coherence;
+    macro_rules! go {
+        ($c:ty, $l:ty, $p:expr) => {
+            match config.in_flight {
+                InFlight::One => trace::stream::<A, $c, $l, $p, 1>(scene, rays, out, pairs, rule),
+                InFlight::Four => trace::stream::<A, $c, $l, $p, 4>(scene, rays, out, pairs, rule),
+                InFlight::Eight => trace::stream::<A, $c, $l, $p, 8>(scene, rays, out, pairs, rule),
+                InFlight::Sixteen => {
+                    trace::stream::<A, $c, $l, $p, 16>(scene, rays, out, pairs, rule)
+                }
+            }
+        };
+    }
+    by_contents!(scene, config.mode, |C| match config.packets {
+        Packets::Off => go!(C, f32x8, false),
+        Packets::Four => go!(C, f32x4, true),
+        Packets::Eight => go!(C, f32x8, true),
+    });
+    Ok(())
+}

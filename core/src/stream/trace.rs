@@ -1,0 +1,188 @@
+//! The stream's work, for either query: coherent runs of the input as packets, then the rest
+//! sorted ([`super::order`]), the sorted coherent runs as packets, and what remains as interleaved
+//! single rays ([`super::interleave`]).
+
+use super::interleave;
+use super::order::{Coherence, key, origin_scale};
+use crate::format::Scene;
+use crate::ray::{Hit, Ray};
+use crate::simd::{Lanes, RayPacket};
+use crate::traverse::Contents;
+use crate::walk::{Closest, Occlusion, Query};
+
+/// A query answered for a whole stream: its per-ray answer, its single-ray query and its packet
+/// call.
+pub(crate) trait Answer {
+    type Out: Copy;
+    type Q: Query;
+    /// The answer for a ray that hits nothing.
+    const NONE: Self::Out;
+    fn query<C: Contents>(ray: &Ray) -> Self::Q;
+    fn answer(query: &Self::Q) -> Self::Out;
+    /// Traces a packet whose lanes are all active; `out[lane]` receives each answer.
+    fn packet<C: Contents, L: Lanes>(scene: &Scene, rays: &RayPacket<L>, out: &mut [Self::Out]);
+}
+
+/// Closest hits.
+pub(crate) struct ClosestHits;
+/// Occlusion.
+pub(crate) struct AnyHits;
+
+impl Answer for ClosestHits {
+    type Out = Hit;
+    type Q = Closest;
+    const NONE: Hit = Hit::MISS;
+    #[inline(always)]
+    fn query<C: Contents>(ray: &Ray) -> Closest {
+        Closest::new::<C>(ray)
+    }
+    #[inline(always)]
+    fn answer(query: &Closest) -> Hit {
+        query.hit()
+    }
+    #[inline(always)]
+    fn packet<C: Contents, L: Lanes>(scene: &Scene, rays: &RayPacket<L>, out: &mut [Hit]) {
+        scene
+            .intersect_packet_with::<C, L>(rays)
+            .write_active(rays, out);
+    }
+}
+
+impl Answer for AnyHits {
+    type Out = bool;
+    type Q = Occlusion;
+    const NONE: bool = false;
+    #[inline(always)]
+    fn query<C: Contents>(ray: &Ray) -> Occlusion {
+        Occlusion::new::<C>(ray)
+    }
+    #[inline(always)]
+    fn answer(query: &Occlusion) -> bool {
+        query.found()
+    }
+    #[inline(always)]
+    fn packet<C: Contents, L: Lanes>(scene: &Scene, rays: &RayPacket<L>, out: &mut [bool]) {
+        let mask = scene.occluded_packet_with::<C, L>(rays).bitmask();
+        for (lane, o) in out.iter_mut().enumerate() {
+            *o = mask >> lane & 1 == 1;
+        }
+    }
+}
+
+/// Traces `rays` into `out` (same length) with `N` single-ray walks in flight, in input order.
+pub(crate) fn interleaved<A: Answer, C: Contents, const N: usize>(
+    scene: &Scene,
+    rays: &[Ray],
+    out: &mut [A::Out],
+) {
+    interleave::run::<Scene, C, A::Q, N>(scene, rays, 0..rays.len(), A::query::<C>, |i, q| {
+        if let Some(o) = out.get_mut(i) {
+            *o = A::answer(q);
+        }
+    });
+}
+
+/// The whole stream: `scratch` holds at least one `[key, index]` pair per ray. With
+/// `PACKETS`, coherent runs of `L::WIDTH` rays (by `rule`) are traced as packets.
+pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool, const N: usize>(
+    scene: &Scene,
+    rays: &[Ray],
+    out: &mut [A::Out],
+    scratch: &mut [[u64; 2]],
+    rule: &Coherence,
+) {
+    let [lo, hi] = scene.bounds();
+    let max_origin = rule.max_origin * (hi - lo).length();
+    let max_origin2 = max_origin * max_origin;
+    let scale = origin_scale(lo, hi);
+    const { assert!(L::WIDTH <= 16) };
+    let width = L::WIDTH;
+    // Coherent runs of the input as it comes (a camera's tiles), the rest keyed for sorting.
+    let mut m = 0;
+    for (c, chunk) in rays.chunks(width).enumerate() {
+        if PACKETS && run_length(chunk.iter(), rule, max_origin2) == width {
+            trace_packet::<A, C, L>(scene, chunk, c * width, |i| i, out);
+            continue;
+        }
+        for (k, ray) in chunk.iter().enumerate() {
+            if let Some(slot) = scratch.get_mut(m) {
+                *slot = [key(ray, lo, scale), (c * width + k) as u64];
+                m += 1;
+            }
+        }
+    }
+    let keys = &mut scratch[..m];
+    keys.sort_unstable();
+    // Coherent runs of the sorted rays as packets; the others compacted to the front of `keys`.
+    let ray_of = |e: &[u64; 2]| rays.get(e[1] as usize);
+    let mut singles = 0;
+    let mut i = 0;
+    while i < m {
+        if PACKETS {
+            let run = &keys[i..m.min(i + width)];
+            let n = run_length(run.iter().filter_map(ray_of), rule, max_origin2);
+            if n == width {
+                let mut batch = [IDLE; 16];
+                for (b, e) in batch.iter_mut().zip(run) {
+                    *b = ray_of(e).copied().unwrap_or(IDLE);
+                }
+                trace_packet::<A, C, L>(scene, &batch[..width], 0, |lane| run[lane][1] as usize, out);
+                i += width;
+                continue;
+            }
+        }
+        keys[singles] = keys[i];
+        singles += 1;
+        i += 1;
+    }
+    let order = keys[..singles].iter().map(|e| e[1] as usize);
+    interleave::run::<Scene, C, A::Q, N>(scene, rays, order, A::query::<C>, |i, q| {
+        if let Some(o) = out.get_mut(i) {
+            *o = A::answer(q);
+        }
+    });
+}
+
+/// A ray no kernel hits, filling unused entries of a gathered batch.
+const IDLE: Ray = Ray {
+    origin: glam::Vec3::ZERO,
+    dir: glam::Vec3::ZERO,
+    tmin: f32::INFINITY,
+    tmax: f32::NEG_INFINITY,
+};
+
+/// How many rays from the start of `rays` may share a packet with the first (0 if it is not
+/// finite).
+#[inline(always)]
+fn run_length<'r>(
+    mut rays: impl Iterator<Item = &'r Ray>,
+    rule: &Coherence,
+    max_origin2: f32,
+) -> usize {
+    let Some(first) = rays.next().filter(|r| r.is_finite()) else {
+        return 0;
+    };
+    1 + rays
+        .take_while(|r| rule.admits(first, r, max_origin2))
+        .count()
+}
+
+/// Traces `batch` (all finite) as one packet; lane `l`'s answer goes to `out[base + index(l)]`.
+#[inline(always)]
+fn trace_packet<A: Answer, C: Contents, L: Lanes>(
+    scene: &Scene,
+    batch: &[Ray],
+    base: usize,
+    index: impl Fn(usize) -> usize,
+    out: &mut [A::Out],
+) {
+    const { assert!(L::WIDTH <= 16) };
+    let packet = RayPacket::<L>::from_rays(batch);
+    let mut answers = [A::NONE; 16];
+    A::packet::<C, L>(scene, &packet, &mut answers[..L::WIDTH]);
+    for (lane, a) in answers.iter().take(batch.len()).enumerate() {
+        if let Some(o) = out.get_mut(base + index(lane)) {
+            *o = *a;
+        }
+    }
+}

@@ -1,0 +1,367 @@
+//! The single-ray kd-tree walk as resumable steps over an explicit state, so that one function
+//! serves both the one-ray walk ([`Scene::intersect`], [`Scene::occluded`]) and the interleaved
+//! walk that keeps many rays in flight ([`crate::stream::interleave`]). The two therefore do the
+//! same arithmetic and visit the same leaves in the same order, ray by ray: their hits are
+//! identical by construction, ties between primitives included.
+//!
+//! A step is one node: an interior node's plane decision, or a leaf's tests, then the next node
+//! (a child or a pending node from the stack). With `HIDE` (the interleaved walk) a step ends by
+//! asking the cache for the node the ray needs next ([`crate::prefetch`]), and a leaf takes up to
+//! three steps: one that asks for its index list (or its one triangle), one that asks for the
+//! triangles the list names, and one that tests them. Between two steps of one ray the walk runs
+//! steps of other rays, which hide the loads' latency — the idea of Embree's prefetching wide
+//! BVH walk and of Aila & Karras's persistent threads, applied to rays instead of lanes
+//! (differs from both: every ray keeps its own exact scalar order). Without `HIDE` the step
+//! compiles to the plain walk (the phases and prefetches are constants that fold away).
+//!
+//! Another node layout supplies its own walk by implementing [`Stepper`] for its scene type; the
+//! interleaved driver is generic over it.
+
+use crate::format::{MAX_DEPTH, Scene};
+use crate::ray::{Hit, Ray};
+use crate::traverse::{Contents, clip_to_box, clip_to_box_in, entry_with_slack, widen};
+use crate::watertight::{self, Shear};
+use glam::Vec3;
+
+/// One pending far child: node index and its `(tmin, tmax)`.
+type StackItem = (u32, f32, f32);
+
+/// What a walk does at a leaf: the query it answers for one ray.
+pub trait Query {
+    /// Tests a leaf's primitives; returns the closest candidate's `t` so far (the walk skips a
+    /// pending node entered beyond it) and whether to stop at once.
+    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: &[u32]) -> (f32, bool);
+}
+
+/// The closest-hit query: the hit so far, and the ray with `tmax` shrunk to it.
+#[derive(Clone, Copy, Debug)]
+pub struct Closest {
+    query: Ray,
+    best: Hit,
+    shear: Shear,
+}
+
+impl Closest {
+    /// A query along `ray` with no hit yet, for contents `C` (the shear only if watertight).
+    #[inline(always)]
+    pub fn new<C: Contents>(ray: &Ray) -> Self {
+        Self {
+            query: *ray,
+            best: Hit::MISS,
+            shear: shear_for::<C>(ray),
+        }
+    }
+
+    /// The closest hit found ([`Hit::MISS`] if none).
+    #[inline(always)]
+    pub fn hit(&self) -> Hit {
+        self.best
+    }
+}
+
+impl Query for Closest {
+    #[inline(always)]
+    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: &[u32]) -> (f32, bool) {
+        for &prim in prims {
+            if let Some((t, u, v)) = scene.intersect_prim_sheared::<C>(prim, &self.query, &self.shear)
+            {
+                self.query.tmax = t;
+                self.best = Hit { t, prim, u, v };
+            }
+        }
+        (self.query.tmax, false)
+    }
+}
+
+/// The any-hit query (shadow rays): stops at the first primitive hit in the ray's interval.
+#[derive(Clone, Copy, Debug)]
+pub struct Occlusion {
+    ray: Ray,
+    shear: Shear,
+    found: bool,
+}
+
+impl Occlusion {
+    /// A query along `ray`, nothing found yet, for contents `C`.
+    #[inline(always)]
+    pub fn new<C: Contents>(ray: &Ray) -> Self {
+        Self {
+            ray: *ray,
+            shear: shear_for::<C>(ray),
+            found: false,
+        }
+    }
+
+    /// Whether anything was found.
+    #[inline(always)]
+    pub fn found(&self) -> bool {
+        self.found
+    }
+}
+
+impl Query for Occlusion {
+    #[inline(always)]
+    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: &[u32]) -> (f32, bool) {
+        let (ray, shear) = (&self.ray, &self.shear);
+        self.found = prims
+            .iter()
+            .any(|&prim| scene.intersect_prim_sheared::<C>(prim, ray, shear).is_some());
+        (self.ray.tmax, self.found)
+    }
+}
+
+/// What a step left to do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// The walk has ended.
+    Done,
+    /// The next step reads data that is probably in cache already (the node after this one in
+    /// memory): an interleaved walk may as well take it at once.
+    Near,
+    /// The next step reads data that may be far away; with `HIDE` it has been asked for, and an
+    /// interleaved walk turns to other rays meanwhile.
+    Far,
+}
+
+/// A node layout's single-ray walk, as resumable steps.
+pub trait Stepper {
+    /// One ray's walk in progress.
+    type State;
+    /// A state to start from (its contents are overwritten by [`Stepper::begin`]).
+    fn empty_state() -> Self::State;
+    /// Starts the walk of `ray` in `state`; false when there is nothing to walk (a non-finite ray,
+    /// or one missing the scene's box), and the query's answer is its initial one.
+    fn begin<C: Contents>(&self, ray: &Ray, state: &mut Self::State) -> bool;
+    /// Runs one step. With `HIDE`, a step that ends [`Progress::Far`] asks the cache for what the
+    /// next step of this ray will read.
+    fn step<C: Contents, Q: Query, const HIDE: bool>(
+        &self,
+        state: &mut Self::State,
+        query: &mut Q,
+    ) -> Progress;
+}
+
+/// The kd-tree walk's state for one ray: the ray's origin and reciprocal direction, the node and
+/// interval it is at, the closest candidate so far, the leaf phase, and its pending far children.
+#[derive(Clone, Debug)]
+pub struct WalkState {
+    origin: Vec3,
+    inv_dir: Vec3,
+    index: u32,
+    tmin: f32,
+    tmax: f32,
+    best_t: f32,
+    /// With `HIDE`, at a leaf: 0 before anything was asked for, 1 once its index list was,
+    /// 2 once its triangles were (tested at the next step).
+    phase: u8,
+    stack: heapless::Vec<StackItem, MAX_DEPTH>,
+}
+
+impl WalkState {
+    /// A state holding no walk.
+    pub const EMPTY: Self = Self {
+        origin: Vec3::ZERO,
+        inv_dir: Vec3::ZERO,
+        index: 0,
+        tmin: 0.0,
+        tmax: 0.0,
+        best_t: 0.0,
+        phase: 0,
+        stack: heapless::Vec::new(),
+    };
+
+    /// Continues with the next pending node, or ends (false).
+    #[inline(always)]
+    fn pop(&mut self) -> bool {
+        match self.stack.pop() {
+            Some((next, a, b)) => {
+                (self.index, self.tmin, self.tmax) = (next, a, b);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Nodes per 64-byte cache line.
+    const NODES_PER_LINE: u32 = 8;
+}
+
+impl Stepper for Scene<'_> {
+    type State = WalkState;
+
+    #[inline(always)]
+    fn empty_state() -> WalkState {
+        WalkState::EMPTY
+    }
+
+    /// Clips the ray to the scene's box (both slab distances widened outward with
+    /// [`Contents::CONSERVATIVE`]) and starts at the root.
+    #[inline(always)]
+    fn begin<C: Contents>(&self, ray: &Ray, s: &mut WalkState) -> bool {
+        if !ray.is_finite() {
+            return false;
+        }
+        let clipped = if C::CONSERVATIVE {
+            clip_to_box_in::<true>(ray, self.bounds())
+        } else {
+            clip_to_box(ray, self.bounds())
+        };
+        let Some((tmin, tmax)) = clipped else {
+            return false;
+        };
+        s.origin = ray.origin;
+        s.inv_dir = ray.dir.recip();
+        (s.index, s.tmin, s.tmax, s.best_t) = (0, tmin, tmax, ray.tmax);
+        s.phase = 0;
+        s.stack.clear();
+        true
+    }
+
+    /// One node of the front-to-back walk (the argument is in [`crate::traverse`]'s module doc).
+    ///
+    /// With [`Contents::CONSERVATIVE`] (watertight mode) every split-plane distance is [`widen`]ed:
+    /// the near child's interval ends at the upper bound of the exact distance, the far child's
+    /// starts at the lower bound, and each child is entered if the bracket reaches its side. Every
+    /// interval then contains the exact one (by induction from the root box, clipped the same
+    /// way), so a cell the ray really passes through, if only at one point (a vertex on two split
+    /// planes), is never skipped. Without it, the two rounded distances of planes that the ray
+    /// crosses at one point can cross over, and the cell between them is dropped
+    /// (docs/ROBUSTNESS.md counts the rays this loses).
+    #[inline(always)]
+    fn step<C: Contents, Q: Query, const HIDE: bool>(
+        &self,
+        s: &mut WalkState,
+        q: &mut Q,
+    ) -> Progress {
+        let node = self.node(s.index);
+        // A node entered beyond the closest hit so far is skipped, not a reason to stop: a ray
+        // lying in a split plane pushes both children with the same interval, so the stack is not
+        // always ordered by entry distance. The entry is lowered by `ENTRY_SLACK` first, see there.
+        let beyond = s.best_t < entry_with_slack(s.tmin);
+        if beyond || node.is_leaf() {
+            if !beyond {
+                let prims = self.leaf_prims(&node);
+                if HIDE && s.phase == 0 && !prims.as_slice().is_empty() {
+                    s.phase = if self.prefetch_leaf(&node) { 1 } else { 2 };
+                    return Progress::Far;
+                }
+                if HIDE && s.phase == 1 {
+                    self.prefetch_prims(prims.as_slice());
+                    s.phase = 2;
+                    return Progress::Far;
+                }
+                s.phase = 0;
+                let (t, stop) = q.leaf::<C>(self, prims.as_slice());
+                s.best_t = t;
+                if stop {
+                    return Progress::Done;
+                }
+            }
+            return self.next_pending::<HIDE>(s);
+        }
+        let here = s.index;
+        let axis = node.axis();
+        let t_plane = (node.split() - s.origin[axis]) * s.inv_dir[axis];
+        // The near child ends, the far child starts, at the plane (its bracket, if watertight).
+        let (far_start, near_end) = if C::CONSERVATIVE {
+            widen(t_plane)
+        } else {
+            (t_plane, t_plane)
+        };
+        // Near and far by the direction's sign (the sign of 1/d, so −0 counts as negative): for
+        // d > 0 the below child holds the ray for t < t_plane. A NaN t_plane (origin on the plane,
+        // direction parallel to it) visits both children with the same interval.
+        let [below_empty, above_empty] = node.empty_children();
+        let ((near, near_empty), (far, far_empty)) = if s.inv_dir[axis] < 0.0 {
+            ((node.above_child(), above_empty), (s.index + 1, below_empty))
+        } else {
+            ((s.index + 1, below_empty), (node.above_child(), above_empty))
+        };
+        // An empty child is never entered: the split only clips the interval.
+        let visit_near = !(near_end < s.tmin) && !near_empty;
+        let visit_far = !(far_start > s.tmax) && !far_empty;
+        // Validation bounds the tree's depth by MAX_DEPTH, and at most one item per level is
+        // pending, so the push cannot fail.
+        match (visit_near, visit_far) {
+            (true, true) => {
+                let _ = s.stack.push((far, s.tmin.max(far_start), s.tmax));
+                s.tmax = s.tmax.min(near_end);
+                s.index = near;
+            }
+            (true, false) => {
+                s.tmax = s.tmax.min(near_end);
+                s.index = near;
+            }
+            (false, true) => {
+                s.tmin = s.tmin.max(far_start);
+                s.index = far;
+            }
+            (false, false) => return self.next_pending::<HIDE>(s),
+        }
+        if s.index / WalkState::NODES_PER_LINE == here / WalkState::NODES_PER_LINE {
+            return Progress::Near;
+        }
+        if HIDE {
+            self.prefetch_node(s.index);
+        }
+        Progress::Far
+    }
+}
+
+impl Scene<'_> {
+    /// Pops the next pending node (asking the cache for it with `HIDE`), or ends the walk.
+    #[inline(always)]
+    fn next_pending<const HIDE: bool>(&self, s: &mut WalkState) -> Progress {
+        if !s.pop() {
+            return Progress::Done;
+        }
+        if HIDE {
+            self.prefetch_node(s.index);
+        }
+        Progress::Far
+    }
+
+    /// Walks `ray` to the end for `query`, one step after another (the one-ray walk).
+    #[inline(always)]
+    pub(crate) fn walk<C: Contents, Q: Query>(&self, ray: &Ray, query: &mut Q) {
+        let mut state = WalkState::EMPTY;
+        if self.begin::<C>(ray, &mut state) {
+            while self.step::<C, Q, false>(&mut state, query) != Progress::Done {}
+        }
+    }
+
+    /// Tests one primitive against `ray` given the ray's [`Shear`] (unused unless watertight).
+    #[inline(always)]
+    pub(crate) fn intersect_prim_sheared<C: Contents>(
+        &self,
+        prim: u32,
+        ray: &Ray,
+        shear: &Shear,
+    ) -> Option<(f32, f32, f32)> {
+        let n_tris = self.tri_count();
+        if C::SPHERES && (!C::TRIANGLES || prim >= n_tris) {
+            return self
+                .sphere(prim - n_tris)
+                .intersect(ray)
+                .map(|t| (t, 0.0, 0.0));
+        }
+        if C::WATERTIGHT {
+            return watertight::intersect_sheared(&self.vertices(prim), ray, shear);
+        }
+        let (tri, min_det2) = self.prepared_triangle(prim);
+        tri.intersect_prepared(ray, min_det2)
+    }
+}
+
+/// The ray's [`Shear`] when `C` is watertight; otherwise a constant that nothing reads.
+#[inline(always)]
+pub(crate) fn shear_for<C: Contents>(ray: &Ray) -> Shear {
+    if C::WATERTIGHT {
+        Shear::new(ray.dir)
+    } else {
+        Shear {
+            k: [0, 1, 2],
+            s: [0.0; 3],
+        }
+    }
+}

@@ -1,0 +1,137 @@
+//! The ray-stream API and the interleaved single-ray walk against the one-ray walk, ray by ray,
+//! on random scenes: the interleaved walk (any number in flight) and a stream without packets give
+//! exactly the one-ray walk's hits (`t`, primitive, `u`, `v`, bit for bit) and occlusion; a stream
+//! with packets the same `t` bits, and either primitive where two tie at that `t` (as the packet
+//! walks do). Short slices are errors, not panics.
+
+use glam::Vec3;
+use kdray_core::stream::{self, Coherence, Config, InFlight, Packets, StreamError};
+use kdray_core::traverse::{Mixed, Mode, Watertight};
+use kdray_core::{Hit, Ray, Scene};
+use kdray_tests::strategies::{grid_geometry, packet_rays, scene_words};
+use proptest::prelude::*;
+
+const IN_FLIGHT: [InFlight; 4] = [
+    InFlight::One,
+    InFlight::Four,
+    InFlight::Eight,
+    InFlight::Sixteen,
+];
+
+/// A stream: runs of coherent and of arbitrary rays, concatenated (so that both the input pass
+/// and the sorted pass find packets to form).
+fn stream_rays() -> impl Strategy<Value = Vec<Ray>> {
+    prop::collection::vec(packet_rays(), 1..16).prop_map(|runs| runs.concat())
+}
+
+/// The coherence rules tried: the default, and one that admits any two rays of an octant (so
+/// that most of a random stream becomes packets).
+fn rules() -> impl Strategy<Value = Coherence> {
+    prop_oneof![
+        Just(Config::default().coherence),
+        Just(Coherence {
+            min_cos: -1.0,
+            max_origin: 10.0,
+        }),
+    ]
+}
+
+fn bits(h: &Hit) -> (u32, u32, u32, u32) {
+    (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits())
+}
+
+macro_rules! stream_matches_scalar {
+    ($name:ident, $mode:expr, $contents:ty) => {
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 200, max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
+            #[test]
+            fn $name(geom in grid_geometry(4), isect in prop_oneof![Just(80.0), Just(4.0)], rays in stream_rays(), coherence in rules()) {
+                let words = scene_words(&geom, isect);
+                let scene = Scene::from_words(&words).unwrap();
+                let want: Vec<Hit> = rays.iter().map(|r| scene.intersect_in($mode, r)).collect();
+                let want_occ: Vec<bool> = rays.iter().map(|r| scene.occluded_in($mode, r)).collect();
+                let n = rays.len();
+                for in_flight in IN_FLIGHT {
+                    let mut hits = vec![Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 }; n];
+                    stream::intersect_interleaved(&scene, $mode, in_flight, &rays, &mut hits).unwrap();
+                    for i in 0..n {
+                        prop_assert_eq!(bits(&hits[i]), bits(&want[i]), "interleaved {:?} ray {} {:?}", in_flight, i, rays[i]);
+                    }
+                    let mut occ = vec![true; n];
+                    stream::occluded_interleaved(&scene, $mode, in_flight, &rays, &mut occ).unwrap();
+                    prop_assert_eq!(&occ, &want_occ, "interleaved occlusion {:?}", in_flight);
+                    for packets in [Packets::Off, Packets::Four, Packets::Eight] {
+                        let config = Config { mode: $mode, packets, in_flight, coherence };
+                        let mut scratch = vec![u64::MAX; stream::scratch_words(n)];
+                        let mut hits = vec![Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 }; n];
+                        stream::intersect(&scene, &config, &rays, &mut hits, &mut scratch).unwrap();
+                        for i in 0..n {
+                            let (got, want, ray) = (hits[i], want[i], rays[i]);
+                            if packets == Packets::Off || got.prim == want.prim {
+                                prop_assert_eq!(bits(&got), bits(&want), "{:?} ray {} {:?}", config, i, ray);
+                            } else {
+                                prop_assert_eq!(got.t.to_bits(), want.t.to_bits(), "{:?} ray {} {:?}", config, i, ray);
+                                let own = scene.intersect_prim::<$contents>(got.prim, &ray).map(|h| h.0);
+                                prop_assert_eq!(own, Some(want.t), "ray {}: prim {} is not a tie", i, got.prim);
+                            }
+                        }
+                        let mut occ = vec![true; n];
+                        stream::occluded(&scene, &config, &rays, &mut occ, &mut scratch).unwrap();
+                        prop_assert_eq!(&occ, &want_occ, "stream occlusion {:?}", config);
+                    }
+                }
+            }
+        }
+    };
+}
+
+stream_matches_scalar!(stream_matches_scalar, Mode::Fast, Mixed);
+stream_matches_scalar!(
+    watertight_stream_matches_scalar,
+    Mode::Watertight,
+    Watertight<Mixed>
+);
+
+#[test]
+fn short_slices_are_errors() {
+    let geom = kdray::Geometry {
+        triangles: vec![[Vec3::ZERO, Vec3::X, Vec3::Y]],
+        ..kdray::Geometry::default()
+    };
+    let words = scene_words(&geom, 80.0);
+    let scene = Scene::from_words(&words).unwrap();
+    let rays = vec![Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z); 5];
+    let config = Config::default();
+    let mut hits = vec![Hit::MISS; 4];
+    let mut scratch = vec![0; stream::scratch_words(5)];
+    assert_eq!(
+        stream::intersect(&scene, &config, &rays, &mut hits, &mut scratch),
+        Err(StreamError::Length {
+            rays: 5,
+            answers: 4
+        })
+    );
+    assert_eq!(
+        stream::intersect_interleaved(&scene, Mode::Fast, InFlight::Eight, &rays, &mut hits),
+        Err(StreamError::Length {
+            rays: 5,
+            answers: 4
+        })
+    );
+    let mut hits = vec![Hit::MISS; 5];
+    let mut short = vec![0; stream::scratch_words(5) - 1];
+    assert_eq!(
+        stream::intersect(&scene, &config, &rays, &mut hits, &mut short),
+        Err(StreamError::Scratch {
+            needed: 10,
+            given: 9
+        })
+    );
+    assert!(hits.iter().all(|h| !h.is_hit()), "nothing traced on error");
+    // Enough scratch: every ray hits the triangle at t = 1.
+    stream::intersect(&scene, &config, &rays, &mut hits, &mut scratch).unwrap();
+    assert!(hits.iter().all(|h| h.prim == 0 && h.t == 1.0));
+    let mut occ = vec![false; 5];
+    stream::occluded(&scene, &config, &rays, &mut occ, &mut scratch).unwrap();
+    assert_eq!(occ, [true; 5]);
+}
