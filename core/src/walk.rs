@@ -63,7 +63,8 @@ impl Query for Closest {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: &[u32]) -> (f32, bool) {
         for &prim in prims {
-            if let Some((t, u, v)) = scene.intersect_prim_sheared::<C>(prim, &self.query, &self.shear)
+            if let Some((t, u, v)) =
+                scene.intersect_prim_sheared::<C>(prim, &self.query, &self.shear)
             {
                 self.query.tmax = t;
                 self.best = Hit { t, prim, u, v };
@@ -103,9 +104,11 @@ impl Query for Occlusion {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: &[u32]) -> (f32, bool) {
         let (ray, shear) = (&self.ray, &self.shear);
-        self.found = prims
-            .iter()
-            .any(|&prim| scene.intersect_prim_sheared::<C>(prim, ray, shear).is_some());
+        self.found = prims.iter().any(|&prim| {
+            scene
+                .intersect_prim_sheared::<C>(prim, ray, shear)
+                .is_some()
+        });
         (self.ray.tmax, self.found)
     }
 }
@@ -273,9 +276,15 @@ impl Stepper for Scene<'_> {
         // direction parallel to it) visits both children with the same interval.
         let [below_empty, above_empty] = node.empty_children();
         let ((near, near_empty), (far, far_empty)) = if s.inv_dir[axis] < 0.0 {
-            ((node.above_child(), above_empty), (s.index + 1, below_empty))
+            (
+                (node.above_child(), above_empty),
+                (s.index + 1, below_empty),
+            )
         } else {
-            ((s.index + 1, below_empty), (node.above_child(), above_empty))
+            (
+                (s.index + 1, below_empty),
+                (node.above_child(), above_empty),
+            )
         };
         // An empty child is never entered: the split only clips the interval.
         let visit_near = !(near_end < s.tmin) && !near_empty;

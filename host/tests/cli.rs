@@ -162,8 +162,16 @@ fn hits_report_input_order() {
     std::fs::write(&rays_file, ray_bytes(&rays)).unwrap();
     let hits = d.join("hits.bin");
     // The stream reorders rays internally: its hits too must come back in input order.
-    let hows: [&[&str]; 4] = [&[], &["--stream"], &["--stream", "--in-flight", "16"], &["--in-flight", "4"]];
-    for (packet, how) in ["1", "4", "8"].into_iter().flat_map(|p| hows.map(|h| (p, h))) {
+    let hows: [&[&str]; 4] = [
+        &[],
+        &["--stream"],
+        &["--stream", "--in-flight", "16"],
+        &["--in-flight", "4"],
+    ];
+    for (packet, how) in ["1", "4", "8"]
+        .into_iter()
+        .flat_map(|p| hows.map(|h| (p, h)))
+    {
         let mut args = vec![
             "trace",
             s(&kdt),
@@ -263,7 +271,14 @@ fn usage_errors_exit_2() {
     );
     assert_eq!(
         kdray(&[
-            "trace", "x.tri", "--rays", "r", "--out", "h", "--in-flight", "3"
+            "trace",
+            "x.tri",
+            "--rays",
+            "r",
+            "--out",
+            "h",
+            "--in-flight",
+            "3"
         ])
         .status
         .code(),

@@ -3,9 +3,9 @@
 use crate::EDGES;
 use glam::Vec3;
 use kdray::Geometry;
-use kdray_core::Ray;
 use kdray::build::{BuildParams, build};
 use kdray::flat::serialize;
+use kdray_core::Ray;
 use proptest::prelude::*;
 
 /// Unit roundoff of f32, 2⁻²⁴.

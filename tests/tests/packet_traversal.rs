@@ -3,10 +3,9 @@
 //! or, where two primitives tie at that `t`, either of them; occlusion the same per lane; inactive
 //! lanes never written.
 
-use glam::Vec3;
 use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::traverse::{Mixed, Mode, Watertight};
-use kdray_core::{Hit, Ray, Scene};
+use kdray_core::{Hit, Scene};
 use kdray_tests::strategies::{grid_geometry, packet_rays as rays, scene_words};
 use proptest::prelude::*;
 

@@ -55,7 +55,16 @@ pub(crate) fn run<W, C, Q, const N: usize>(
         query: new(&IDLE_RAY),
     });
     let mut live = 0;
-    while live < N && refill::<W, C, Q>(layout, rays, &mut order, &new, &mut finish, &mut slots[live]) {
+    while live < N
+        && refill::<W, C, Q>(
+            layout,
+            rays,
+            &mut order,
+            &new,
+            &mut finish,
+            &mut slots[live],
+        )
+    {
         live += 1;
     }
     while live > 0 {

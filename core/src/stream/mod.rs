@@ -28,7 +28,7 @@ use crate::format::Scene;
 use crate::ray::{Hit, Ray};
 use crate::simd::{f32x4, f32x8};
 use crate::traverse::{Mode, by_contents};
-use trace::{AnyHits, Answer, ClosestHits};
+use trace::{Answer, AnyHits, ClosestHits};
 
 /// `u64` words of scratch a stream of `rays` rays needs: a sort key and an index per ray.
 pub const fn scratch_words(rays: usize) -> usize {

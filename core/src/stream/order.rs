@@ -50,9 +50,7 @@ pub fn key(ray: &Ray, lo: Vec3, scale: Vec3) -> u64 {
         cell(d.y, DIR_BITS),
         cell(d.z, DIR_BITS),
     );
-    u64::from(octant(ray.dir)) << (3 * (ORIGIN_BITS + DIR_BITS))
-        | origin << (3 * DIR_BITS)
-        | dir
+    u64::from(octant(ray.dir)) << (3 * (ORIGIN_BITS + DIR_BITS)) | origin << (3 * DIR_BITS) | dir
 }
 
 /// The per-axis scale of [`key`] for the box `[lo, hi]` (0 on a flat axis).

@@ -126,7 +126,13 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool, cons
                 for (b, e) in batch.iter_mut().zip(run) {
                     *b = ray_of(e).copied().unwrap_or(IDLE);
                 }
-                trace_packet::<A, C, L>(scene, &batch[..width], 0, |lane| run[lane][1] as usize, out);
+                trace_packet::<A, C, L>(
+                    scene,
+                    &batch[..width],
+                    0,
+                    |lane| run[lane][1] as usize,
+                    out,
+                );
                 i += width;
                 continue;
             }
