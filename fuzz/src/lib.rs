@@ -87,7 +87,12 @@ pub fn stream_agrees_with_scalar(scene: &Scene, rays: &[Ray], scalar: &[Hit]) {
         stream::intersect_interleaved(scene, Mode::Fast, in_flight, rays, &mut hits)
             .expect("lengths match");
         for (i, (h, w)) in hits.iter().zip(scalar).enumerate() {
-            assert_eq!(bits(h), bits(w), "interleaved {in_flight:?}: ray {i} {:?}", rays[i]);
+            assert_eq!(
+                bits(h),
+                bits(w),
+                "interleaved {in_flight:?}: ray {i} {:?}",
+                rays[i]
+            );
         }
         for packets in [Packets::Off, Packets::Eight] {
             let config = Config {
@@ -108,10 +113,22 @@ pub fn stream_agrees_with_scalar(scene: &Scene, rays: &[Ray], scalar: &[Hit]) {
                 if packets == Packets::Off {
                     assert_eq!(bits(h), bits(w), "stream {config:?}: ray {i} {:?}", rays[i]);
                 } else {
-                    assert_eq!(h.t.to_bits(), w.t.to_bits(), "stream t: ray {i} {:?}", rays[i]);
-                    assert!(h.prim == w.prim || (h.is_hit() && w.is_hit()), "stream prim: ray {i}");
+                    assert_eq!(
+                        h.t.to_bits(),
+                        w.t.to_bits(),
+                        "stream t: ray {i} {:?}",
+                        rays[i]
+                    );
+                    assert!(
+                        h.prim == w.prim || (h.is_hit() && w.is_hit()),
+                        "stream prim: ray {i}"
+                    );
                 }
-                assert_eq!(occ[i], occluded[i], "stream occlusion: ray {i} {:?}", rays[i]);
+                assert_eq!(
+                    occ[i], occluded[i],
+                    "stream occlusion: ray {i} {:?}",
+                    rays[i]
+                );
             }
         }
     }
