@@ -1,0 +1,120 @@
+//! [`FormatError`]: why a word array is not a scene.
+
+use super::{HEADER_WORDS, MAX_DEPTH, VERSION};
+
+/// Why a word array is not a scene. Each kind of corruption has its own variant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FormatError {
+    /// Fewer words than the header.
+    TooShort,
+    BadMagic,
+    UnsupportedVersion(u32),
+    /// CONTENTS has bits this version does not define, or disagrees with the counts/offsets.
+    BadContents,
+    /// TOTAL_WORDS differs from the array's length (truncated or with trailing data).
+    LengthMismatch {
+        header: u32,
+        actual: usize,
+    },
+    /// The stored checksum is not the words' [`checksum`]: the file was damaged after writing.
+    Checksum,
+    /// A reserved header word is not zero.
+    ReservedNotZero,
+    /// A count times its stride overflows `usize`, or the primitive total overflows `u32`.
+    CountOverflow,
+    /// A section starts inside the header, is misaligned or runs past the end.
+    SectionOutOfBounds,
+    /// Two sections share words.
+    SectionsOverlap,
+    /// The scene bounds are not finite or min > max.
+    BadBounds,
+    /// A triangle, sphere, normal or texture coordinate is NaN or infinite, a radius ≤ 0, or a
+    /// triangle's stored threshold is not the one its vertices give.
+    NonFiniteGeometry,
+    /// A hittable triangle (finite threshold) or a sphere reaches outside the header's bounds.
+    OutsideBounds {
+        prim: u32,
+    },
+    /// The tree has no node, or its depth exceeds [`MAX_DEPTH`] or disagrees with DEPTH.
+    BadDepth,
+    /// An interior node's split is not finite or lies outside the scene bounds.
+    BadSplit {
+        node: u32,
+    },
+    /// A child index is not greater than its parent's, is out of range, or the nodes are not one
+    /// tree in depth-first order (a shared or skipped node).
+    BadChild {
+        node: u32,
+    },
+    /// An interior node's empty-child bits do not say exactly which children are empty leaves.
+    BadEmptyFlag {
+        node: u32,
+    },
+    /// A leaf references a primitive or an index-list range that does not exist.
+    BadPrimitive {
+        node: u32,
+    },
+    /// An input id is not below the triangle count.
+    BadInputId {
+        triangle: u32,
+    },
+}
+
+impl core::fmt::Display for FormatError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::TooShort => write!(f, "shorter than the {HEADER_WORDS}-word header"),
+            Self::BadMagic => write!(f, "not a kdray scene (bad magic)"),
+            Self::UnsupportedVersion(v) => {
+                write!(
+                    f,
+                    "format version {v}, this build reads {VERSION} (rebuild the file with `kdray build`)"
+                )
+            }
+            Self::BadContents => write!(f, "contents bits disagree with the sections"),
+            Self::LengthMismatch { header, actual } => {
+                write!(
+                    f,
+                    "header says {header} words, the data has {actual} (truncated or padded)"
+                )
+            }
+            Self::Checksum => write!(
+                f,
+                "checksum mismatch: the file was damaged after it was written (rebuild it with `kdray build`)"
+            ),
+            Self::ReservedNotZero => write!(f, "reserved header words are not zero"),
+            Self::CountOverflow => write!(f, "a count overflows"),
+            Self::SectionOutOfBounds => {
+                write!(f, "a section lies outside the data or is misaligned")
+            }
+            Self::SectionsOverlap => write!(f, "two sections overlap"),
+            Self::BadBounds => write!(f, "scene bounds are not finite"),
+            Self::NonFiniteGeometry => {
+                write!(f, "geometry has NaN/infinite values or a radius <= 0")
+            }
+            Self::BadDepth => write!(f, "tree depth is zero-sized, above {MAX_DEPTH} or wrong"),
+            Self::OutsideBounds { prim } => {
+                write!(f, "primitive {prim} lies outside the scene bounds")
+            }
+            Self::BadSplit { node } => {
+                write!(
+                    f,
+                    "node {node}: split plane is not finite or outside the bounds"
+                )
+            }
+            Self::BadChild { node } => write!(f, "node {node}: child index breaks the tree order"),
+            Self::BadEmptyFlag { node } => {
+                write!(
+                    f,
+                    "node {node}: empty-child flags disagree with its children"
+                )
+            }
+            Self::BadPrimitive { node } => {
+                write!(f, "node {node}: primitive reference out of range")
+            }
+            Self::BadInputId { triangle } => {
+                write!(f, "triangle {triangle}: input id out of range")
+            }
+        }
+    }
+}

@@ -1,0 +1,400 @@
+//! The flat scene format: one `&[u32]` of little-endian words, built by the host and validated
+//! once by [`Scene::from_words`]; every later access relies on what was validated here.
+//!
+//! # Header (word index: meaning)
+//! ```text
+//!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
+//!  1  VERSION         6 (5 stored edges, not vertices; 4 had no checksum: files written before
+//!                     are refused, rebuild them)
+//!  2  CONTENTS        bit set, see `contents::*`: which sections are present
+//!  3  TOTAL_WORDS     length of the whole array in words (catches truncation and trailing data)
+//!  4  NODE_COUNT      kd-tree nodes (≥ 1; 2 words each)
+//!  5  TRI_COUNT       triangles; primitives 0 .. TRI_COUNT are triangles in storage order
+//!  6  SPHERE_COUNT    spheres; primitives TRI_COUNT .. TRI_COUNT + SPHERE_COUNT
+//!  7  INDEX_COUNT     words in the leaf primitive-index list
+//!  8  DEPTH           depth of the tree (root alone = 0), at most `MAX_DEPTH`
+//!  9..15 BOUNDS       scene box: min x, y, z, max x, y, z (f32 bits)
+//! 15  NODES_OFFSET    word offset of the nodes section
+//! 16  INDICES_OFFSET  … of the primitive-index list (0 when INDEX_COUNT = 0)
+//! 17  TRIS_OFFSET     … of the triangles (0 when absent)
+//! 18  SPHERES_OFFSET  … of the spheres (0 when absent)
+//! 19  NORMALS_OFFSET  … of per-vertex normals (0 when absent)
+//! 20  UVS_OFFSET      … of texture coordinates (0 when absent)
+//! 21  MATERIALS_OFFSET … of per-primitive material ids (0 when absent)
+//! 22  BUILD_MS        build time in milliseconds (f32 bits): information only, not validated
+//! 23  INPUT_IDS_OFFSET … of the triangles' input indices (0 when absent)
+//! 24..26 CHECKSUM     [`checksum`] of all words, low word first (see "Corruption" below)
+//! 26..32              reserved, must be 0
+//! ```
+//! Sections start on multiples of 8 words (32 bytes), lie inside `HEADER_WORDS .. TOTAL_WORDS`
+//! and do not overlap. A section the scene does not need is absent (offset 0, bit clear), not
+//! filled with zeros.
+//!
+//! # Sections
+//! - **Nodes**, 2 words each, pbrt-v3's `KdAccelNode` layout plus two bits marking empty children
+//!   ([`Node`]).
+//! - **Indices**: `u32` primitive ids, referenced by leaves with more than one primitive.
+//! - **Triangles**: 10 f32 each, the vertices `v0, v1, v2` exactly as the input gave them, then
+//!   the triangle's parallel threshold [`Triangle::min_det2`] (`+inf` for a degenerate triangle),
+//!   so the kernels need not recompute `|e1 × e2|²` per test. Möller–Trumbore's edges
+//!   `e1 = v1 − v0`, `e2 = v2 − v0` are computed at load ([`Scene::prepared_triangle`]) with the
+//!   same f32 subtractions the builder's [`Triangle::from_vertices`] makes, so its results are bit
+//!   for bit those of version 5, which stored the edges. Version 6 stores the vertices because the
+//!   watertight kernel ([`crate::watertight`]) needs two triangles sharing an edge to see
+//!   bit-identical vertices: `v0 + e1` is not `v1` in f32. Validation requires the vertices and
+//!   both edges finite, and recomputes the threshold and requires the stored bits.
+//! - **Spheres**: 4 f32 each, centre and radius (> 0).
+//! - **Normals**: 9 f32 per triangle, the normals at `v0, v1, v2`.
+//! - **UVs**: 6 f32 per triangle, the texture coordinates at `v0, v1, v2`.
+//! - **Materials**: one `u32` per primitive (triangles, then spheres).
+//! - **Input ids**: one `u32` per triangle, its index in the input (what a hit reports, see
+//!   [`Scene::input_id`]); absent when storage order is input order. The builder stores
+//!   triangles in the order the leaves first reference them, depth first, so that a leaf's
+//!   triangles, and those of its neighbours, share cache lines (8-wide packets on the dragon:
+//!   about 9 % faster). Normals, texture coordinates and materials follow storage order.
+//!   Validation checks each id is below TRI_COUNT, not that they are a permutation (that would
+//!   need memory): a repeated id can only mislabel a hit, never make an access fail.
+//!
+//! # Corruption: what a damaged or crafted file can and cannot do
+//! - **Damage** (a flipped bit, a torn write, a bad sector) is caught by the checksum: 64-bit
+//!   FNV-1a (Fowler, Noll, Vo) run over the words in four interleaved lanes (word `i` feeds lane
+//!   `i mod 4`; the two checksum words count as 0), the lanes and the length then folded by
+//!   the same step. Each step `h ← (h ⊕ w)·p` is a bijection of `h` for a fixed word and of `w`
+//!   for a fixed `h`, so a file that differs from what was written in any **one** word (any
+//!   single-bit flip among them) never matches; random damage to several words goes unnoticed
+//!   with a chance of about 2⁻⁶⁴. Checking it costs one multiply per word, less than the
+//!   validation pass below. [`Scene::from_words`] checks it right after the magic, version and
+//!   length, so a damaged file fails with [`FormatError::Checksum`] before anything else is read.
+//! - **A crafted file** can carry a matching checksum (it is not a signature: anyone can
+//!   recompute it with [`seal`]). What validation then still guarantees: no access out of range,
+//!   no panic, no walk longer than the node count, no NaN or infinite geometry, no threshold that
+//!   lets a degenerate triangle be hit, no hittable triangle (finite threshold) or sphere outside
+//!   the header's bounds (a sphere by more than 4 ulp of the bounds' magnitude, the rounding of
+//!   `c ± r`), no split plane outside them. What it cannot rule out: any
+//!   other geometry, tree or ids than the ones the writer meant. Such a file traces, in bounded
+//!   time, to hits that are wrong for the intended scene but consistent for the one stored.
+
+use crate::node::{LEAF, Node};
+use crate::sphere::Sphere;
+use crate::triangle::Triangle;
+use glam::Vec3;
+
+/// "KDRY" as a little-endian word.
+pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
+/// The format version this core reads and the host writes.
+pub const VERSION: u32 = 6;
+/// Words before the first section.
+pub const HEADER_WORDS: usize = 32;
+/// Sections are aligned to this many words (32 bytes).
+pub const SECTION_ALIGN: usize = 8;
+/// The deepest tree the fixed traversal stacks accept. pbrt-v3's depth rule
+/// `8 + 1.3·log2(N)` reaches 48 only at N ≈ 2³¹ primitives.
+pub const MAX_DEPTH: usize = 64;
+
+/// Header word indices.
+pub mod header {
+    pub const MAGIC: usize = 0;
+    pub const VERSION: usize = 1;
+    pub const CONTENTS: usize = 2;
+    pub const TOTAL_WORDS: usize = 3;
+    pub const NODE_COUNT: usize = 4;
+    pub const TRI_COUNT: usize = 5;
+    pub const SPHERE_COUNT: usize = 6;
+    pub const INDEX_COUNT: usize = 7;
+    pub const DEPTH: usize = 8;
+    pub const BOUNDS: usize = 9;
+    pub const NODES_OFFSET: usize = 15;
+    pub const INDICES_OFFSET: usize = 16;
+    pub const TRIS_OFFSET: usize = 17;
+    pub const SPHERES_OFFSET: usize = 18;
+    pub const NORMALS_OFFSET: usize = 19;
+    pub const UVS_OFFSET: usize = 20;
+    pub const MATERIALS_OFFSET: usize = 21;
+    pub const BUILD_MS: usize = 22;
+    pub const INPUT_IDS_OFFSET: usize = 23;
+    /// Two words: the [`super::checksum`], low word first.
+    pub const CHECKSUM: usize = 24;
+    /// First reserved word; `RESERVED .. HEADER_WORDS` must be zero.
+    pub const RESERVED: usize = 26;
+}
+
+/// The CONTENTS bits.
+pub mod contents {
+    pub const TRIANGLES: u32 = 1 << 0;
+    pub const SPHERES: u32 = 1 << 1;
+    pub const NORMALS: u32 = 1 << 2;
+    pub const UVS: u32 = 1 << 3;
+    pub const MATERIALS: u32 = 1 << 4;
+    /// Triangles are stored in another order than the input's (the input-ids section).
+    pub const INPUT_IDS: u32 = 1 << 5;
+    /// Every bit this version defines.
+    pub const ALL: u32 = TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS | INPUT_IDS;
+}
+
+/// Words per element of each section.
+pub mod stride {
+    pub const NODE: usize = 2;
+    pub const TRIANGLE: usize = 10;
+    pub const SPHERE: usize = 4;
+    pub const NORMALS: usize = 9;
+    pub const UVS: usize = 6;
+}
+
+mod checksum;
+mod error;
+mod validate;
+
+pub use checksum::{checksum, seal};
+pub use error::FormatError;
+
+/// A validated scene borrowing its words.
+#[derive(Clone, Copy, Debug)]
+pub struct Scene<'a> {
+    contents: u32,
+    build_ms: f32,
+    depth: u32,
+    bounds: [Vec3; 2],
+    nodes: &'a [[u32; stride::NODE]],
+    indices: &'a [u32],
+    tris: &'a [[f32; stride::TRIANGLE]],
+    spheres: &'a [f32],
+    normals: &'a [f32],
+    uvs: &'a [f32],
+    materials: &'a [u32],
+    input_ids: &'a [u32],
+}
+
+impl<'a> Scene<'a> {
+    /// The CONTENTS bits.
+    #[inline]
+    pub fn contents(&self) -> u32 {
+        self.contents
+    }
+
+    /// The input index of primitive `prim` (what a hit should report): its position in the
+    /// builder's input for a triangle stored out of input order, else `prim` itself (spheres,
+    /// [`Hit::MISS`](crate::Hit::MISS)'s id, scenes stored in input order).
+    #[inline]
+    pub fn input_id(&self, prim: u32) -> u32 {
+        self.input_ids.get(prim as usize).copied().unwrap_or(prim)
+    }
+
+    /// Whether triangles are stored out of input order (the input-ids section is present).
+    #[inline]
+    pub fn reorders_triangles(&self) -> bool {
+        !self.input_ids.is_empty()
+    }
+
+    /// The build time recorded by the writer, in milliseconds (information only).
+    #[inline]
+    pub fn build_ms(&self) -> f32 {
+        self.build_ms
+    }
+
+    /// The tree's depth (root alone = 0).
+    #[inline]
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
+    /// The scene box `[min, max]`.
+    #[inline]
+    pub fn bounds(&self) -> [Vec3; 2] {
+        self.bounds
+    }
+
+    #[inline]
+    pub fn node_count(&self) -> u32 {
+        self.nodes.len() as u32
+    }
+
+    #[inline]
+    pub fn tri_count(&self) -> u32 {
+        self.tris.len() as u32
+    }
+
+    #[inline]
+    pub fn sphere_count(&self) -> u32 {
+        (self.spheres.len() / stride::SPHERE) as u32
+    }
+
+    /// Triangles plus spheres.
+    #[inline]
+    pub fn prim_count(&self) -> u32 {
+        self.tri_count() + self.sphere_count()
+    }
+
+    /// Node `i`. Callers pass indices that validation guaranteed, so this never goes out of range
+    /// for a child or `0`.
+    #[inline(always)]
+    pub fn node(&self, i: u32) -> Node {
+        Node::from_words(self.nodes[i as usize])
+    }
+
+    /// The primitive ids of a leaf.
+    #[inline(always)]
+    pub fn leaf_prims(&self, node: &Node) -> LeafPrims<'a> {
+        match node.prim_count() {
+            0 => LeafPrims::One(None),
+            1 => LeafPrims::One(Some(node.payload())),
+            n => {
+                let start = node.payload() as usize;
+                LeafPrims::Many(&self.indices[start..start + n as usize])
+            }
+        }
+    }
+
+    /// Triangle `i` (`i < tri_count`).
+    #[inline(always)]
+    pub fn triangle(&self, i: u32) -> Triangle {
+        self.prepared_triangle(i).0
+    }
+
+    /// Triangle `i` and its stored [`Triangle::min_det2`]; the edges are computed from the stored
+    /// vertices as [`Triangle::from_vertices`] does.
+    #[inline(always)]
+    pub fn prepared_triangle(&self, i: u32) -> (Triangle, f32) {
+        let s = &self.tris[i as usize];
+        (stored_triangle(s), s[9])
+    }
+
+    /// The vertices `v0, v1, v2` of triangle `i` (`i < tri_count`), exactly as stored: a vertex
+    /// shared by two triangles has the same bits in both (what the watertight kernel relies on).
+    #[inline(always)]
+    pub fn vertices(&self, i: u32) -> [Vec3; 3] {
+        stored_vertices(&self.tris[i as usize])
+    }
+
+    /// Asks the cache for node `i` ahead of its use ([`crate::prefetch`]); only a hint.
+    #[inline(always)]
+    pub(crate) fn prefetch_node(&self, i: u32) {
+        if let Some(n) = self.nodes.get(i as usize) {
+            crate::prefetch::t0(n);
+        }
+    }
+
+    /// Asks the cache for what a leaf's test reads first: the triangle of a one-primitive leaf,
+    /// or the first word of a longer leaf's index list (whose triangles are known only once it has
+    /// arrived, see [`Scene::prefetch_prims`]). Returns whether the leaf has an index list.
+    #[inline(always)]
+    pub(crate) fn prefetch_leaf(&self, node: &Node) -> bool {
+        match node.prim_count() {
+            0 => false,
+            1 => {
+                self.prefetch_prims(&[node.payload()]);
+                false
+            }
+            _ => {
+                if let Some(w) = self.indices.get(node.payload() as usize) {
+                    crate::prefetch::t0(w);
+                }
+                true
+            }
+        }
+    }
+
+    /// Asks the cache for the triangle records of `prims` (a 40-byte record may straddle two
+    /// lines: both ends are asked for). Spheres are not prefetched.
+    #[inline(always)]
+    pub(crate) fn prefetch_prims(&self, prims: &[u32]) {
+        for &p in prims {
+            if let Some(t) = self.tris.get(p as usize) {
+                crate::prefetch::t0(&t[0]);
+                crate::prefetch::t0(&t[stride::TRIANGLE - 1]);
+            }
+        }
+    }
+
+    /// The geometric normal of primitive `prim` at a point `p` on it, not normalized: `e1 × e2`
+    /// for a triangle ([`Triangle::geometric_normal`]), `(p − c) / R` for a sphere
+    /// ([`Sphere::normal`]). Zero for a degenerate triangle.
+    #[inline]
+    pub fn geometric_normal(&self, prim: u32, p: Vec3) -> Vec3 {
+        match prim.checked_sub(self.tri_count()) {
+            None => self.triangle(prim).geometric_normal(),
+            Some(sphere) => self.sphere(sphere).normal(p),
+        }
+    }
+
+    /// Sphere `i`, counted among spheres (`i < sphere_count`), not among all primitives.
+    #[inline(always)]
+    pub fn sphere(&self, i: u32) -> Sphere {
+        let s = &self.spheres[i as usize * stride::SPHERE..][..stride::SPHERE];
+        Sphere {
+            center: Vec3::new(s[0], s[1], s[2]),
+            radius: s[3],
+        }
+    }
+
+    /// Per-vertex normals of triangle `i`, when the scene has them.
+    #[inline]
+    pub fn vertex_normals(&self, i: u32) -> Option<[Vec3; 3]> {
+        let s = self
+            .normals
+            .get(i as usize * stride::NORMALS..)?
+            .get(..stride::NORMALS)?;
+        Some([
+            Vec3::new(s[0], s[1], s[2]),
+            Vec3::new(s[3], s[4], s[5]),
+            Vec3::new(s[6], s[7], s[8]),
+        ])
+    }
+
+    /// Texture coordinates of triangle `i`, when the scene has them.
+    #[inline]
+    pub fn vertex_uvs(&self, i: u32) -> Option<[glam::Vec2; 3]> {
+        let s = self
+            .uvs
+            .get(i as usize * stride::UVS..)?
+            .get(..stride::UVS)?;
+        Some([
+            glam::Vec2::new(s[0], s[1]),
+            glam::Vec2::new(s[2], s[3]),
+            glam::Vec2::new(s[4], s[5]),
+        ])
+    }
+
+    /// Material id of primitive `prim`, 0 when the scene has no materials section.
+    #[inline]
+    pub fn material(&self, prim: u32) -> u32 {
+        self.materials.get(prim as usize).copied().unwrap_or(0)
+    }
+}
+
+/// The primitives of one leaf: none or one stored inline, or a run of the index list.
+#[derive(Clone, Copy, Debug)]
+pub enum LeafPrims<'a> {
+    One(Option<u32>),
+    Many(&'a [u32]),
+}
+
+impl LeafPrims<'_> {
+    /// The ids as a slice-like iterator.
+    #[inline(always)]
+    pub fn as_slice(&self) -> &[u32] {
+        match self {
+            LeafPrims::One(Some(p)) => core::slice::from_ref(p),
+            LeafPrims::One(None) => &[],
+            LeafPrims::Many(s) => s,
+        }
+    }
+}
+
+/// The vertices of one stored triangle.
+#[inline(always)]
+fn stored_vertices(s: &[f32; stride::TRIANGLE]) -> [Vec3; 3] {
+    [
+        Vec3::new(s[0], s[1], s[2]),
+        Vec3::new(s[3], s[4], s[5]),
+        Vec3::new(s[6], s[7], s[8]),
+    ]
+}
+
+/// One stored triangle in Möller–Trumbore's layout.
+#[inline(always)]
+fn stored_triangle(s: &[f32; stride::TRIANGLE]) -> Triangle {
+    let [v0, v1, v2] = stored_vertices(s);
+    Triangle::from_vertices(v0, v1, v2)
+}
+
+const _: () = assert!(LEAF == 3);

@@ -1,0 +1,301 @@
+//! [`Scene::from_words`]: the one validation pass every later access relies on.
+
+use super::{
+    FormatError, HEADER_WORDS, MAGIC, MAX_DEPTH, SECTION_ALIGN, Scene, VERSION, checksum, contents,
+    header, stored_triangle, stored_vertices, stride,
+};
+use crate::node::Node;
+use glam::Vec3;
+
+/// A section's place: offset word, element count, words per element, contents bit (0 = always).
+struct SectionSpec {
+    offset_word: usize,
+    count: usize,
+    stride: usize,
+    bit: u32,
+}
+
+impl<'a> Scene<'a> {
+    /// Validates `words` and returns a view of it. Runs in time linear in its length and never
+    /// panics, whatever the words.
+    ///
+    /// # Errors
+    /// The first problem found, as a [`FormatError`].
+    pub fn from_words(words: &'a [u32]) -> Result<Self, FormatError> {
+        if words.len() < HEADER_WORDS {
+            return Err(FormatError::TooShort);
+        }
+        let h = |i: usize| words[i];
+        if h(header::MAGIC) != MAGIC {
+            return Err(FormatError::BadMagic);
+        }
+        if h(header::VERSION) != VERSION {
+            return Err(FormatError::UnsupportedVersion(h(header::VERSION)));
+        }
+        if h(header::TOTAL_WORDS) as usize != words.len() {
+            return Err(FormatError::LengthMismatch {
+                header: h(header::TOTAL_WORDS),
+                actual: words.len(),
+            });
+        }
+        let stored = u64::from(h(header::CHECKSUM)) | u64::from(h(header::CHECKSUM + 1)) << 32;
+        if stored != checksum(words) {
+            return Err(FormatError::Checksum);
+        }
+        if words[header::RESERVED..HEADER_WORDS]
+            .iter()
+            .any(|&w| w != 0)
+        {
+            return Err(FormatError::ReservedNotZero);
+        }
+        let contents = h(header::CONTENTS);
+        let (n_nodes, n_tris, n_spheres, n_indices) = (
+            h(header::NODE_COUNT) as usize,
+            h(header::TRI_COUNT) as usize,
+            h(header::SPHERE_COUNT) as usize,
+            h(header::INDEX_COUNT) as usize,
+        );
+        let n_prims = h(header::TRI_COUNT)
+            .checked_add(h(header::SPHERE_COUNT))
+            .ok_or(FormatError::CountOverflow)?;
+        let tri_bit = if n_tris > 0 { contents::TRIANGLES } else { 0 };
+        let sphere_bit = if n_spheres > 0 { contents::SPHERES } else { 0 };
+        if contents & !contents::ALL != 0
+            || contents & (contents::TRIANGLES | contents::SPHERES) != tri_bit | sphere_bit
+            || (contents & (contents::NORMALS | contents::UVS | contents::INPUT_IDS) != 0
+                && n_tris == 0)
+        {
+            return Err(FormatError::BadContents);
+        }
+        let specs = [
+            SectionSpec {
+                offset_word: header::NODES_OFFSET,
+                count: n_nodes,
+                stride: stride::NODE,
+                bit: 0,
+            },
+            SectionSpec {
+                offset_word: header::INDICES_OFFSET,
+                count: n_indices,
+                stride: 1,
+                bit: 0,
+            },
+            SectionSpec {
+                offset_word: header::TRIS_OFFSET,
+                count: n_tris,
+                stride: stride::TRIANGLE,
+                bit: contents::TRIANGLES,
+            },
+            SectionSpec {
+                offset_word: header::SPHERES_OFFSET,
+                count: n_spheres,
+                stride: stride::SPHERE,
+                bit: contents::SPHERES,
+            },
+            SectionSpec {
+                offset_word: header::NORMALS_OFFSET,
+                count: n_tris,
+                stride: stride::NORMALS,
+                bit: contents::NORMALS,
+            },
+            SectionSpec {
+                offset_word: header::UVS_OFFSET,
+                count: n_tris,
+                stride: stride::UVS,
+                bit: contents::UVS,
+            },
+            SectionSpec {
+                offset_word: header::MATERIALS_OFFSET,
+                count: n_prims as usize,
+                stride: 1,
+                bit: contents::MATERIALS,
+            },
+            SectionSpec {
+                offset_word: header::INPUT_IDS_OFFSET,
+                count: n_tris,
+                stride: 1,
+                bit: contents::INPUT_IDS,
+            },
+        ];
+        // (start, end) of each section, (0, 0) when absent.
+        let mut ranges = [(0usize, 0usize); 8];
+        for (range, spec) in ranges.iter_mut().zip(specs.iter()) {
+            let offset = h(spec.offset_word) as usize;
+            let present = if spec.bit == 0 {
+                spec.count > 0
+            } else {
+                contents & spec.bit != 0
+            };
+            if !present {
+                if offset != 0 {
+                    return Err(FormatError::BadContents);
+                }
+                continue;
+            }
+            let len = spec
+                .count
+                .checked_mul(spec.stride)
+                .ok_or(FormatError::CountOverflow)?;
+            let end = offset.checked_add(len).ok_or(FormatError::CountOverflow)?;
+            if offset < HEADER_WORDS || !offset.is_multiple_of(SECTION_ALIGN) || end > words.len() {
+                return Err(FormatError::SectionOutOfBounds);
+            }
+            *range = (offset, end);
+        }
+        // Pairwise overlap test on at most 8 sections: no sort, no allocation.
+        for (i, a) in ranges.iter().enumerate() {
+            for b in &ranges[i + 1..] {
+                if a.1 > a.0 && b.1 > b.0 && a.0 < b.1 && b.0 < a.1 {
+                    return Err(FormatError::SectionsOverlap);
+                }
+            }
+        }
+        let words_of = |i: usize| &words[ranges[i].0..ranges[i].1];
+        let floats_of = |i: usize| bytemuck::cast_slice::<u32, f32>(words_of(i));
+        let bounds_f: [f32; 6] =
+            core::array::from_fn(|k| f32::from_bits(words[header::BOUNDS + k]));
+        let bounds = [
+            Vec3::new(bounds_f[0], bounds_f[1], bounds_f[2]),
+            Vec3::new(bounds_f[3], bounds_f[4], bounds_f[5]),
+        ];
+        if !(bounds[0].is_finite() && bounds[1].is_finite() && bounds[0].cmple(bounds[1]).all()) {
+            return Err(FormatError::BadBounds);
+        }
+        let scene = Scene {
+            contents,
+            build_ms: f32::from_bits(h(header::BUILD_MS)),
+            depth: h(header::DEPTH),
+            bounds,
+            nodes: words_of(0).as_chunks().0,
+            indices: words_of(1),
+            tris: floats_of(2).as_chunks().0,
+            spheres: floats_of(3),
+            normals: floats_of(4),
+            uvs: floats_of(5),
+            materials: words_of(6),
+            input_ids: words_of(7),
+        };
+        let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
+        let triangles_ok = scene.tris.iter().all(|t| {
+            let tri = stored_triangle(t);
+            finite(&t[..9])
+                && tri.e1.is_finite()
+                && tri.e2.is_finite()
+                && tri.min_det2().to_bits() == t[9].to_bits()
+        });
+        if !(triangles_ok && finite(scene.spheres) && finite(scene.normals) && finite(scene.uvs))
+            || scene
+                .spheres
+                .chunks_exact(stride::SPHERE)
+                .any(|s| !(s[3] > 0.0))
+        {
+            return Err(FormatError::NonFiniteGeometry);
+        }
+        scene.check_inside_bounds()?;
+        if let Some(i) = scene.input_ids.iter().position(|&id| id as usize >= n_tris) {
+            return Err(FormatError::BadInputId { triangle: i as u32 });
+        }
+        if scene.nodes.is_empty() {
+            return Err(FormatError::BadDepth);
+        }
+        let depth = scene.validate_tree(n_prims)?;
+        if depth != scene.depth {
+            return Err(FormatError::BadDepth);
+        }
+        Ok(scene)
+    }
+
+    /// Walks the tree once depth-first, below child first, checking that the nodes are visited in
+    /// exactly the order `0, 1, 2, …` (the pre-order layout the builder writes). That makes every
+    /// child index greater than its parent's, every node reachable exactly once, and so bounds
+    /// every later walk. Returns the tree's depth.
+    fn validate_tree(&self, n_prims: u32) -> Result<u32, FormatError> {
+        let n_nodes = self.node_count();
+        // Pending above-children and their depths; capacity bounds the depth we accept.
+        let mut stack: heapless::Vec<(u32, u32), MAX_DEPTH> = heapless::Vec::new();
+        let mut next = 0u32; // the index the pre-order walk must visit next
+        let mut current = Some((0u32, 0u32));
+        let mut max_depth = 0;
+        while let Some((index, depth)) = current {
+            if index != next || index >= n_nodes {
+                return Err(FormatError::BadChild { node: index });
+            }
+            if depth as usize > MAX_DEPTH {
+                return Err(FormatError::BadDepth);
+            }
+            max_depth = max_depth.max(depth);
+            next += 1;
+            let node = self.node(index);
+            if node.is_leaf() {
+                self.validate_leaf(index, node, n_prims)?;
+                current = stack.pop();
+            } else {
+                let axis = node.axis();
+                let inside = (self.bounds[0][axis]..=self.bounds[1][axis]).contains(&node.split());
+                if !inside {
+                    return Err(FormatError::BadSplit { node: index });
+                }
+                let above = node.above_child();
+                if above <= index + 1 || above >= n_nodes {
+                    return Err(FormatError::BadChild { node: index });
+                }
+                let empty = [index + 1, above].map(|i| self.node(i).is_empty_leaf());
+                if node.empty_children() != empty {
+                    return Err(FormatError::BadEmptyFlag { node: index });
+                }
+                stack
+                    .push((above, depth + 1))
+                    .map_err(|_| FormatError::BadDepth)?;
+                current = Some((index + 1, depth + 1));
+            }
+        }
+        if next != n_nodes {
+            return Err(FormatError::BadChild { node: next });
+        }
+        Ok(max_depth)
+    }
+
+    /// Every hittable triangle (finite threshold) and every sphere lies inside the header's
+    /// bounds: a triangle's stored vertices exactly, a sphere's `c ± r` within 4 ulp of the
+    /// bounds' magnitude (the rounding of `c ± r`).
+    fn check_inside_bounds(&self) -> Result<(), FormatError> {
+        let [lo, hi] = self.bounds;
+        let slack = lo.abs().max(hi.abs()) * (4.0 * f32::EPSILON);
+        let (lo_s, hi_s) = (lo - slack, hi + slack);
+        let inside = |p: Vec3, lo: Vec3, hi: Vec3| p.cmpge(lo).all() && p.cmple(hi).all();
+        for (i, t) in self.tris.iter().enumerate() {
+            if t[9] == f32::INFINITY {
+                continue; // never hit, and the builder leaves it out of the bounds
+            }
+            if !stored_vertices(t).iter().all(|&v| inside(v, lo, hi)) {
+                return Err(FormatError::OutsideBounds { prim: i as u32 });
+            }
+        }
+        for i in 0..self.sphere_count() {
+            let s = self.sphere(i);
+            let r = Vec3::splat(s.radius);
+            if !(inside(s.center - r, lo_s, hi_s) && inside(s.center + r, lo_s, hi_s)) {
+                let prim = self.tri_count() + i;
+                return Err(FormatError::OutsideBounds { prim });
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_leaf(&self, index: u32, node: Node, n_prims: u32) -> Result<(), FormatError> {
+        let bad = FormatError::BadPrimitive { node: index };
+        match node.prim_count() {
+            0 => Ok(()),
+            1 if node.payload() < n_prims => Ok(()),
+            1 => Err(bad),
+            n => {
+                let start = node.payload() as usize;
+                let end = start.checked_add(n as usize).ok_or(bad)?;
+                match self.indices.get(start..end) {
+                    Some(ids) if ids.iter().all(|&p| p < n_prims) => Ok(()),
+                    _ => Err(bad),
+                }
+            }
+        }
+    }
+}
