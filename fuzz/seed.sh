@@ -18,4 +18,7 @@ with open(sys.argv[1], "wb") as f:
         f.write(struct.pack("<9f", *t))
 PY
 cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan.kdt
+# The same two with a blocks section (format v7's blocked layout).
+cargo run -q -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default-blocked.kdt --layout blocked
+cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-blocked.kdt --layout blocked
 rm -rf "$tmp"

@@ -22,7 +22,8 @@
 //! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (seed §5).
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
 //! - [`camera`]: pinhole, the seed's fisheye and parallel cameras, its thick lens and lens array.
-//! - [`format`], [`node`]: the flat scene format and its validation.
+//! - [`format`], [`node`]: the flat scene format and its validation; [`blocked`]: the
+//!   cache-line-blocked copy of the tree (three levels per 64-byte block) and its walk.
 //! - [`traverse`]: scalar closest-hit and any-hit traversal; [`walk`]: its walk as resumable
 //!   steps over an explicit state, shared by the one-ray walk and the interleaved one.
 //! - [`stream`]: ray streams — many rays in one call, sorted into packets and interleaved single
@@ -42,6 +43,7 @@
 // Hit tests are written as `!(x > y)` on purpose: NaN must fail them (see the crate doc).
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod blocked;
 pub mod camera;
 pub mod color;
 pub mod description;

@@ -188,6 +188,21 @@ pub fn clip_to_box_in<const ROBUST: bool>(ray: &Ray, bounds: [Vec3; 2]) -> Optio
     Some((t0, t1))
 }
 
+/// Where a walk starts: `ray`'s interval inside the scene box, clipped as `C`'s walk does
+/// (both slab distances widened outward with [`Contents::CONSERVATIVE`]); `None` for a ray that
+/// misses the box or is not finite (so nothing can loop on NaN).
+#[inline(always)]
+pub(crate) fn entry_interval<C: Contents>(ray: &Ray, bounds: [Vec3; 2]) -> Option<(f32, f32)> {
+    if !ray.is_finite() {
+        return None;
+    }
+    if C::CONSERVATIVE {
+        clip_to_box_in::<true>(ray, bounds)
+    } else {
+        clip_to_box(ray, bounds)
+    }
+}
+
 /// Relative slack on a node's entry distance before the closest hit may rule the node out.
 ///
 /// A split plane's `t` and Möller–Trumbore's `t` of a triangle lying on (or touching) that plane

@@ -19,7 +19,7 @@
 
 use crate::format::{MAX_DEPTH, Scene};
 use crate::ray::{Hit, Ray};
-use crate::traverse::{Contents, clip_to_box, clip_to_box_in, entry_with_slack, widen};
+use crate::traverse::{Contents, entry_interval, entry_with_slack, widen};
 use crate::watertight::{self, Shear};
 use glam::Vec3;
 
@@ -201,15 +201,7 @@ impl Stepper for Scene<'_> {
     /// [`Contents::CONSERVATIVE`]) and starts at the root.
     #[inline(always)]
     fn begin<C: Contents>(&self, ray: &Ray, s: &mut WalkState) -> bool {
-        if !ray.is_finite() {
-            return false;
-        }
-        let clipped = if C::CONSERVATIVE {
-            clip_to_box_in::<true>(ray, self.bounds())
-        } else {
-            clip_to_box(ray, self.bounds())
-        };
-        let Some((tmin, tmax)) = clipped else {
+        let Some((tmin, tmax)) = entry_interval::<C>(ray, self.bounds()) else {
             return false;
         };
         s.origin = ray.origin;
@@ -330,9 +322,13 @@ impl Scene<'_> {
         Progress::Far
     }
 
-    /// Walks `ray` to the end for `query`, one step after another (the one-ray walk).
+    /// Walks `ray` to the end for `query`, one step after another (the one-ray walk); over the
+    /// blocks when the scene has them ([`crate::blocked::walk`]: the same decisions and hits).
     #[inline(always)]
     pub(crate) fn walk<C: Contents, Q: Query>(&self, ray: &Ray, query: &mut Q) {
+        if !self.blocks().is_empty() {
+            return self.walk_blocked::<C, Q>(ray, query);
+        }
         let mut state = WalkState::EMPTY;
         if self.begin::<C>(ray, &mut state) {
             while self.step::<C, Q, false>(&mut state, query) != Progress::Done {}

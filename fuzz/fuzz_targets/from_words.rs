@@ -4,7 +4,9 @@
 //! inputs whose length is 4 more than a multiple of 64 bytes are left as they came, to keep the
 //! checksum path covered. A scene it accepts is then traced, scalar and in 4- and 8-wide packets,
 //! along a fixed fan of rays through its box, and the three must agree (the same `t` bits; a
-//! different primitive only as a tie at that `t`), for closest hits and for occlusion.
+//! different primitive only as a tie at that `t`), for closest hits and for occlusion. A scene
+//! with a blocks section (format v7) is also traced over its nodes
+//! ([`Scene::without_blocks`]): both walks must return the same hits bit for bit.
 //!
 //! Run: `cargo +nightly fuzz run from_words fuzz/corpus/from_words` (from the repository root);
 //! the corpus starts from small valid scenes (`fuzz/seed.sh`).
@@ -12,7 +14,8 @@
 
 use glam::Vec3;
 use kdray_core::format::seal;
-use kdray_core::{Ray, Scene};
+use kdray_core::traverse::Mode;
+use kdray_core::{Hit, Ray, Scene};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
@@ -28,6 +31,17 @@ fuzz_target!(|data: &[u8]| {
     };
     let rays = fan(&scene);
     kdray_fuzz::packets_agree_with_scalar(&scene, &rays);
+    if !scene.blocks().is_empty() {
+        let nodes = scene.without_blocks();
+        for ray in &rays {
+            for mode in [Mode::Fast, Mode::Watertight] {
+                let (a, b) = (scene.intersect_in(mode, ray), nodes.intersect_in(mode, ray));
+                let bits = |h: Hit| [h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()];
+                assert_eq!(bits(a), bits(b), "{mode:?} {ray:?}");
+                assert_eq!(scene.occluded_in(mode, ray), nodes.occluded_in(mode, ray));
+            }
+        }
+    }
 });
 
 /// Rays from outside the box towards its centre and its corners, along the axes (±0 components)

@@ -5,25 +5,54 @@ use crate::build::clip::Aabb;
 use crate::build::{BuildNode, BuildParams, Tree};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header};
+use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header, stride};
 use kdray_core::node::Node;
 use kdray_core::{Scene, Triangle};
 use std::path::Path;
 
-/// Flattens `tree` in depth-first order (below child first: the order `Scene::from_words`
-/// requires) and appends the geometry sections the scene needs.
+/// How the tree is stored: the node section alone, or also cut into cache-line blocks
+/// (`kdray_core::blocked`), which the single-ray queries then walk.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Layout {
+    /// 8-byte nodes only (pbrt-v3's layout).
+    #[default]
+    Nodes,
+    /// The nodes and a blocks section: three levels of the tree per 64-byte block.
+    Blocked,
+}
+
+/// [`serialize_as`] in the default [`Layout`].
 ///
 /// # Errors
-/// A tree too large for the node fields (2³⁰ nodes or primitives in one leaf).
+/// See [`serialize_as`].
 pub fn serialize(
     tree: &Tree,
     geom: &Geometry,
     build_ms: f32,
 ) -> core::result::Result<Vec<u32>, String> {
+    serialize_as(tree, geom, build_ms, Layout::default())
+}
+
+/// Flattens `tree` in depth-first order (below child first: the order `Scene::from_words`
+/// requires), cuts it into blocks for [`Layout::Blocked`], and appends the geometry sections the
+/// scene needs.
+///
+/// # Errors
+/// A tree too large for the node fields (2³⁰ nodes or primitives in one leaf) or the blocks.
+pub fn serialize_as(
+    tree: &Tree,
+    geom: &Geometry,
+    build_ms: f32,
+    layout: Layout,
+) -> core::result::Result<Vec<u32>, String> {
     let mut nodes: Vec<Node> = Vec::new();
     let mut indices: Vec<u32> = Vec::new();
     let depth = flatten(&tree.root, &mut nodes, &mut indices)?;
     let input_ids = leaf_order(&mut nodes, &mut indices, geom.triangles.len());
+    let blocks = match layout {
+        Layout::Nodes => Vec::new(),
+        Layout::Blocked => crate::blocks::to_blocks(&nodes)?,
+    };
     let reordered = input_ids.as_ref().map(|ids| reorder(geom, ids));
     let geom = reordered.as_ref().unwrap_or(geom);
     let n_tris = geom.triangles.len();
@@ -121,6 +150,17 @@ pub fn serialize(
             header::INPUT_IDS_OFFSET,
             &mut ids.iter().copied(),
         );
+    }
+    if !blocks.is_empty() {
+        c |= contents::BLOCKED;
+        // Blocks start on a 16-word boundary (a cache line in 64-byte aligned words).
+        words.resize(words.len().next_multiple_of(stride::BLOCK), 0);
+        section(
+            &mut words,
+            header::BLOCKS_OFFSET,
+            &mut blocks.iter().flatten().copied(),
+        );
+        words[header::BLOCK_COUNT] = blocks.len() as u32;
     }
     let total =
         u32::try_from(words.len()).map_err(|_| "scene larger than 2^32 words".to_string())?;
@@ -263,6 +303,34 @@ fn flatten(
 pub fn write_kdt(path: &Path, words: &[u32]) -> Result<()> {
     let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
     crate::files::write_atomic(path, &bytes)
+}
+
+/// Words whose first one lies on a 64-byte boundary, so that the blocks section (at a multiple of
+/// 16 words in the file) is made of whole cache lines; a `Vec<u32>` is only 4-byte aligned (and
+/// a large one from the system allocator typically 16 bytes past a page), which would split every
+/// block across two lines. Derefs to the words.
+#[derive(Clone, Debug)]
+pub struct Aligned {
+    buf: Vec<u32>,
+    start: usize,
+}
+
+impl Aligned {
+    /// A 64-byte aligned copy of `words`.
+    pub fn new(words: &[u32]) -> Self {
+        let mut buf = vec![0u32; words.len() + 15];
+        let start = (64 - buf.as_ptr() as usize % 64) % 64 / 4;
+        buf[start..start + words.len()].copy_from_slice(words);
+        buf.truncate(start + words.len());
+        Self { buf, start }
+    }
+}
+
+impl core::ops::Deref for Aligned {
+    type Target = [u32];
+    fn deref(&self) -> &[u32] {
+        &self.buf[self.start..]
+    }
 }
 
 /// Reads a `.kdt` file (a regular file) into words and validates it.

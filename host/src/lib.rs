@@ -13,6 +13,7 @@ pub mod scene;
 pub use error::{Error, Result};
 pub use geometry::Geometry;
 pub mod accuracy;
+pub mod blocks;
 pub mod build;
 pub mod closed;
 pub mod converge;

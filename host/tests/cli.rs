@@ -129,6 +129,90 @@ fn build_info_trace_round_trip() {
     }
 }
 
+/// `build --layout blocked` writes a blocks section that `info` reports and `trace` walks, to the
+/// same hits file as the nodes-only layout (single rays and packets, both modes).
+#[test]
+fn blocked_layout_round_trip() {
+    let d = dir("blocked");
+    let mesh = d.join("scatter.tri");
+    let tris: Vec<[f32; 9]> = (0..400)
+        .map(|i| {
+            let p = [
+                (i * 7 % 13) as f32,
+                (i * 11 % 17) as f32,
+                (i * 5 % 19) as f32,
+            ];
+            [
+                p[0],
+                p[1],
+                p[2],
+                p[0] + 1.5,
+                p[1],
+                p[2] + 0.2,
+                p[0],
+                p[1] + 1.2,
+                p[2] - 0.3,
+            ]
+        })
+        .collect();
+    tri_file(&mesh, &tris);
+    let rays = d.join("rays.bin");
+    let ray_set: Vec<[f32; 8]> = (0..500)
+        .map(|i| {
+            let a = i as f32 * 0.61;
+            let dir = [a.cos() * 0.6, a.sin() * 0.6, -0.8];
+            [6.0, 8.0, 30.0, dir[0], dir[1], dir[2], 0.0, f32::INFINITY]
+        })
+        .collect();
+    std::fs::write(&rays, ray_bytes(&ray_set)).unwrap();
+    let kdt = |layout: &str| {
+        let kdt = d.join(format!("{layout}.kdt"));
+        let out = kdray(&["build", s(&mesh), "-o", s(&kdt), "--layout", layout]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        kdt
+    };
+    let (nodes, blocked) = (kdt("nodes"), kdt("blocked"));
+    let info = String::from_utf8_lossy(&kdray(&["info", s(&blocked)]).stdout).into_owned();
+    assert!(info.contains("layout          blocked ("), "{info}");
+    let info = String::from_utf8_lossy(&kdray(&["info", s(&nodes)]).stdout).into_owned();
+    assert!(info.contains("layout          nodes ("), "{info}");
+    for packet in ["1", "8"] {
+        for watertight in [false, true] {
+            let trace = |kdt: &Path, name: &str| {
+                let hits = d.join(name);
+                let mut args = vec!["trace", s(kdt), "--rays", s(&rays), "--out", s(&hits)];
+                args.extend(["--packet", packet, "--threads", "1"]);
+                if watertight {
+                    args.push("--watertight");
+                }
+                let out = kdray(&args);
+                assert!(
+                    out.status.success(),
+                    "{}",
+                    String::from_utf8_lossy(&out.stderr)
+                );
+                (
+                    String::from_utf8_lossy(&out.stdout).into_owned(),
+                    std::fs::read(hits).unwrap(),
+                )
+            };
+            let (line_n, hits_n) = trace(&nodes, "nodes.hits");
+            let (line_b, hits_b) = trace(&blocked, "blocked.hits");
+            assert!(line_n.contains("layout=nodes"), "{line_n}");
+            assert!(line_b.contains("layout=blocked"), "{line_b}");
+            assert!(
+                line_b.contains("hits=") && !line_b.contains("hits=0 "),
+                "{line_b}"
+            );
+            assert!(hits_n == hits_b, "packet {packet}, watertight {watertight}");
+        }
+    }
+}
+
 /// The builder stores triangles in leaf order; hits must still name them by their input index,
 /// with barycentrics relative to their input vertices.
 #[test]

@@ -145,3 +145,25 @@ pub fn packet_rays() -> impl Strategy<Value = Vec<Ray>> {
         });
     prop_oneof![coherent, prop::collection::vec(any_ray, 1..9)]
 }
+
+/// A unit direction whose components are often ±0 (rays parallel to split planes).
+pub fn axis_biased_direction() -> impl Strategy<Value = Vec3> {
+    (component(), component(), component()).prop_filter_map("zero direction", |(x, y, z)| {
+        Vec3::new(x, y, z).try_normalize()
+    })
+}
+
+/// A ray for traversal tests: from a grid point or anywhere near the grid scenes, an
+/// [`axis_biased_direction`], the whole positive range or a band that may start before 0.
+pub fn traversal_ray() -> impl Strategy<Value = Ray> {
+    let origin = prop_oneof![
+        grid_point(),
+        (-3.0f32..3.0, -3.0f32..3.0, -3.0f32..3.0).prop_map(Vec3::from)
+    ];
+    let range = prop_oneof![
+        3 => Just((0.0f32, f32::INFINITY)),
+        1 => (-2.0f32..2.0, 0.5f32..6.0).prop_map(|(a, b)| (a, a + b)),
+    ];
+    (origin, axis_biased_direction(), range)
+        .prop_map(|(o, d, (t0, t1))| Ray::new(o, d).with_range(t0, t1))
+}

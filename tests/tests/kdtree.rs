@@ -3,38 +3,13 @@
 //! (so split planes, axis-aligned and coplanar triangles, shared edges and origins on planes are
 //! common), degenerate triangles, spheres, and axis-parallel directions with ±0 components.
 
-use glam::Vec3;
 use kdray::build::{BuildParams, build};
 use kdray::flat::serialize;
 use kdray_core::traverse::{Contents, Mixed, Mode, Watertight};
 use kdray_core::{Hit, Ray, Scene};
-use kdray_tests::strategies::{grid_geometry, grid_point};
+use kdray_tests::strategies::{grid_geometry, traversal_ray};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
-
-fn direction() -> impl Strategy<Value = Vec3> {
-    let component = prop_oneof![
-        3 => -1.0f32..1.0,
-        1 => Just(0.0f32),
-        1 => Just(-0.0f32),
-    ];
-    (component.clone(), component.clone(), component)
-        .prop_filter_map("zero direction", |(x, y, z)| {
-            Vec3::new(x, y, z).try_normalize()
-        })
-}
-
-fn ray() -> impl Strategy<Value = Ray> {
-    let origin = prop_oneof![
-        grid_point(),
-        (-3.0f32..3.0, -3.0f32..3.0, -3.0f32..3.0).prop_map(Vec3::from)
-    ];
-    let range = prop_oneof![
-        3 => Just((0.0f32, f32::INFINITY)),
-        1 => (-2.0f32..2.0, 0.5f32..6.0).prop_map(|(a, b)| (a, a + b)),
-    ];
-    (origin, direction(), range).prop_map(|(o, d, (t0, t1))| Ray::new(o, d).with_range(t0, t1))
-}
 
 fn params() -> impl Strategy<Value = BuildParams> {
     // Cheap traversal makes deep trees with many straddling primitives; 80/1 is the default.
@@ -111,7 +86,7 @@ proptest! {
     fn traversal_equals_brute_force(
         geom in grid_geometry(6),
         params in params(),
-        rays in prop::collection::vec(ray(), 1..40),
+        rays in prop::collection::vec(traversal_ray(), 1..40),
     ) {
         let tree = build(&geom, &params, None).unwrap();
         let words = serialize(&tree, &geom, 0.0).unwrap();

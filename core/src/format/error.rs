@@ -58,6 +58,20 @@ pub enum FormatError {
     BadInputId {
         triangle: u32,
     },
+    /// A block's axes word or an unused slot or reference breaks the layout
+    /// ([`crate::blocked`]), or a child block's root is not an interior node.
+    BadBlockFlags {
+        block: u32,
+    },
+    /// A block's reference is out of range, points back to an earlier block, enters a block out
+    /// of turn (shared or skipped), or names another leaf node than the one at its place.
+    BadBlockRef {
+        block: u32,
+    },
+    /// The blocked tree differs from the node tree (split, axis, leaf or shape).
+    BlockMismatch {
+        block: u32,
+    },
 }
 
 impl core::fmt::Display for FormatError {
@@ -114,6 +128,22 @@ impl core::fmt::Display for FormatError {
             }
             Self::BadInputId { triangle } => {
                 write!(f, "triangle {triangle}: input id out of range")
+            }
+            Self::BadBlockFlags { block } => {
+                write!(
+                    f,
+                    "block {block}: axes or unused words break the block layout"
+                )
+            }
+            Self::BadBlockRef { block } => write!(
+                f,
+                "block {block}: reference out of range, backwards or out of order"
+            ),
+            Self::BlockMismatch { block } => {
+                write!(
+                    f,
+                    "block {block}: the blocked tree differs from the node tree"
+                )
             }
         }
     }

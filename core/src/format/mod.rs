@@ -4,8 +4,8 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         6 (5 stored edges, not vertices; 4 had no checksum: files written before
-//!                     are refused, rebuild them)
+//!  1  VERSION         7 (6 had no blocks section, 5 stored edges, not vertices, 4 had no
+//!                     checksum: files written before are refused, rebuild them)
 //!  2  CONTENTS        bit set, see `contents::*`: which sections are present
 //!  3  TOTAL_WORDS     length of the whole array in words (catches truncation and trailing data)
 //!  4  NODE_COUNT      kd-tree nodes (≥ 1; 2 words each)
@@ -24,7 +24,9 @@
 //! 22  BUILD_MS        build time in milliseconds (f32 bits): information only, not validated
 //! 23  INPUT_IDS_OFFSET … of the triangles' input indices (0 when absent)
 //! 24..26 CHECKSUM     [`checksum`] of all words, low word first (see "Corruption" below)
-//! 26..32              reserved, must be 0
+//! 26  BLOCK_COUNT     blocks of the blocked tree (0 when absent)
+//! 27  BLOCKS_OFFSET   … of the blocks section (0 when absent; a multiple of 16 words)
+//! 28..32              reserved, must be 0
 //! ```
 //! Sections start on multiples of 8 words (32 bytes), lie inside `HEADER_WORDS .. TOTAL_WORDS`
 //! and do not overlap. A section the scene does not need is absent (offset 0, bit clear), not
@@ -54,6 +56,16 @@
 //!   about 9 % faster). Normals, texture coordinates and materials follow storage order.
 //!   Validation checks each id is below TRI_COUNT, not that they are a permutation (that would
 //!   need memory): a repeated id can only mislabel a hit, never make an access fail.
+//! - **Blocks** (CONTENTS bit `BLOCKED`, version 7): the same tree again, cut into 64-byte
+//!   blocks of three levels (7 planes, their axes in one word, 8 references to child blocks or
+//!   leaves), so that the single-ray walk loads one cache line per three levels
+//!   ([`crate::blocked`], where the encoding is documented). Leaves stay in the node section
+//!   (a reference names the leaf node, or holds a one-primitive leaf's id, or marks an empty
+//!   leaf). Validation requires the blocked tree to be the node tree exactly, so both walks
+//!   return the same hits. When present, [`Scene::intersect`] and [`Scene::occluded`] walk it;
+//!   the packet walks use the nodes. The section starts on a multiple of 16 words, so the blocks
+//!   are cache lines when the words are 64-byte aligned (the host aligns them,
+//!   `kdray::flat::Aligned`).
 //!
 //! # Corruption: what a damaged or crafted file can and cannot do
 //! - **Damage** (a flipped bit, a torn write, a bad sector) is caught by the checksum: 64-bit
@@ -74,6 +86,7 @@
 //!   other geometry, tree or ids than the ones the writer meant. Such a file traces, in bounded
 //!   time, to hits that are wrong for the intended scene but consistent for the one stored.
 
+use crate::blocked::Block;
 use crate::node::{LEAF, Node};
 use crate::sphere::Sphere;
 use crate::triangle::Triangle;
@@ -82,7 +95,7 @@ use glam::Vec3;
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 6;
+pub const VERSION: u32 = 7;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).
@@ -114,8 +127,10 @@ pub mod header {
     pub const INPUT_IDS_OFFSET: usize = 23;
     /// Two words: the [`super::checksum`], low word first.
     pub const CHECKSUM: usize = 24;
+    pub const BLOCK_COUNT: usize = 26;
+    pub const BLOCKS_OFFSET: usize = 27;
     /// First reserved word; `RESERVED .. HEADER_WORDS` must be zero.
-    pub const RESERVED: usize = 26;
+    pub const RESERVED: usize = 28;
 }
 
 /// The CONTENTS bits.
@@ -127,8 +142,10 @@ pub mod contents {
     pub const MATERIALS: u32 = 1 << 4;
     /// Triangles are stored in another order than the input's (the input-ids section).
     pub const INPUT_IDS: u32 = 1 << 5;
+    /// The tree is also stored cache-line-blocked (the blocks section, [`crate::blocked`]).
+    pub const BLOCKED: u32 = 1 << 6;
     /// Every bit this version defines.
-    pub const ALL: u32 = TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS | INPUT_IDS;
+    pub const ALL: u32 = TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS | INPUT_IDS | BLOCKED;
 }
 
 /// Words per element of each section.
@@ -138,6 +155,7 @@ pub mod stride {
     pub const SPHERE: usize = 4;
     pub const NORMALS: usize = 9;
     pub const UVS: usize = 6;
+    pub const BLOCK: usize = crate::blocked::BLOCK_WORDS;
 }
 
 mod checksum;
@@ -162,6 +180,7 @@ pub struct Scene<'a> {
     uvs: &'a [f32],
     materials: &'a [u32],
     input_ids: &'a [u32],
+    blocks: &'a [Block],
 }
 
 impl<'a> Scene<'a> {
@@ -169,6 +188,22 @@ impl<'a> Scene<'a> {
     #[inline]
     pub fn contents(&self) -> u32 {
         self.contents
+    }
+
+    /// The blocks section ([`crate::blocked`]); empty when the file has none.
+    #[inline(always)]
+    pub fn blocks(&self) -> &'a [Block] {
+        self.blocks
+    }
+
+    /// This scene with its blocks section set aside: the single-ray queries walk the nodes (to
+    /// compare the two walks on one file; the CONTENTS bits are unchanged).
+    #[inline]
+    pub fn without_blocks(&self) -> Self {
+        Self {
+            blocks: &[],
+            ..*self
+        }
     }
 
     /// The input index of primitive `prim` (what a hit should report): its position in the

@@ -116,9 +116,18 @@ impl<'a> Scene<'a> {
                 stride: 1,
                 bit: contents::INPUT_IDS,
             },
+            SectionSpec {
+                offset_word: header::BLOCKS_OFFSET,
+                count: h(header::BLOCK_COUNT) as usize,
+                stride: stride::BLOCK,
+                bit: contents::BLOCKED,
+            },
         ];
+        if contents & contents::BLOCKED == 0 && h(header::BLOCK_COUNT) != 0 {
+            return Err(FormatError::BadContents);
+        }
         // (start, end) of each section, (0, 0) when absent.
-        let mut ranges = [(0usize, 0usize); 8];
+        let mut ranges = [(0usize, 0usize); 9];
         for (range, spec) in ranges.iter_mut().zip(specs.iter()) {
             let offset = h(spec.offset_word) as usize;
             let present = if spec.bit == 0 {
@@ -137,12 +146,18 @@ impl<'a> Scene<'a> {
                 .checked_mul(spec.stride)
                 .ok_or(FormatError::CountOverflow)?;
             let end = offset.checked_add(len).ok_or(FormatError::CountOverflow)?;
-            if offset < HEADER_WORDS || !offset.is_multiple_of(SECTION_ALIGN) || end > words.len() {
+            // Blocks start on a cache line (16 words), the others on 8 words.
+            let align = if spec.bit == contents::BLOCKED {
+                stride::BLOCK
+            } else {
+                SECTION_ALIGN
+            };
+            if offset < HEADER_WORDS || !offset.is_multiple_of(align) || end > words.len() {
                 return Err(FormatError::SectionOutOfBounds);
             }
             *range = (offset, end);
         }
-        // Pairwise overlap test on at most 8 sections: no sort, no allocation.
+        // Pairwise overlap test on at most 9 sections: no sort, no allocation.
         for (i, a) in ranges.iter().enumerate() {
             for b in &ranges[i + 1..] {
                 if a.1 > a.0 && b.1 > b.0 && a.0 < b.1 && b.0 < a.1 {
@@ -174,6 +189,7 @@ impl<'a> Scene<'a> {
             uvs: floats_of(5),
             materials: words_of(6),
             input_ids: words_of(7),
+            blocks: words_of(8).as_chunks().0,
         };
         let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
         let triangles_ok = scene.tris.iter().all(|t| {
@@ -201,6 +217,9 @@ impl<'a> Scene<'a> {
         let depth = scene.validate_tree(n_prims)?;
         if depth != scene.depth {
             return Err(FormatError::BadDepth);
+        }
+        if contents & contents::BLOCKED != 0 {
+            crate::blocked::validate::validate(&scene, scene.blocks)?;
         }
         Ok(scene)
     }

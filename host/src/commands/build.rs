@@ -29,6 +29,10 @@ pub struct BuildArgs {
     /// Build on one thread.
     #[arg(long)]
     pub serial_build: bool,
+    /// How the tree is stored: `nodes` (8-byte nodes), or `blocked` (the nodes and a copy cut
+    /// into 64-byte blocks of three levels, which single rays walk; format v7).
+    #[arg(long, value_enum, default_value_t = flat::Layout::default())]
+    pub layout: flat::Layout,
 }
 
 impl Default for BuildArgs {
@@ -40,6 +44,7 @@ impl Default for BuildArgs {
             empty_bonus: p.empty_bonus,
             max_depth: p.max_depth,
             serial_build: !p.parallel,
+            layout: flat::Layout::default(),
         }
     }
 }
@@ -82,7 +87,12 @@ fn parse_bonus(s: &str) -> core::result::Result<f64, String> {
 
 /// Builds `geom` with a progress bar; returns the words and the build time in ms. Geometry the
 /// flat format cannot hold is refused first, naming `path` (the input).
-pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result<(Vec<u32>, f64)> {
+pub fn build_words(
+    path: &Path,
+    geom: &Geometry,
+    params: &BuildParams,
+    layout: flat::Layout,
+) -> Result<(Vec<u32>, f64)> {
     load::check_buildable(path, geom)?;
     let progress = AtomicU64::new(0);
     let bar = ProgressBar::new(1000).with_message(format!("building {}", path.display()));
@@ -102,7 +112,8 @@ pub fn build_words(path: &Path, geom: &Geometry, params: &BuildParams) -> Result
         },
     );
     let tree = tree.map_err(|e| Error::new(path, e))?;
-    let words = flat::serialize(&tree, geom, build_ms as f32).map_err(|e| Error::new(path, e))?;
+    let words = flat::serialize_as(&tree, geom, build_ms as f32, layout)
+        .map_err(|e| Error::new(path, e))?;
     if let Err(e) = Scene::from_words(&words) {
         let msg = format!("the built tree does not validate ({e}): please report this input");
         return Err(Error::new(path, msg));
@@ -124,7 +135,7 @@ pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)
         return Ok((words, ms));
     }
     let geom = input::load_input(path)?;
-    build_words(path, &geom, &args.params())
+    build_words(path, &geom, &args.params(), args.layout)
 }
 
 /// `kdray build`: the tree into `out` and, for a scene file, its render description into
@@ -143,7 +154,7 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
         Some(file) => file.geometry()?,
         None => input::load_input(input)?,
     };
-    let (words, build_ms) = build_words(input, &geom, &args.params())?;
+    let (words, build_ms) = build_words(input, &geom, &args.params(), args.layout)?;
     let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
     flat::write_kdt(out, &words)?;
     let desc = match (&file, description) {
@@ -212,6 +223,15 @@ pub fn info(file: &Path) -> Result<()> {
         s.sah_cost
     );
     println!("bytes           {}", s.bytes);
+    let node_bytes = scene.node_count() as usize * 8;
+    match scene.blocks().len() * 64 {
+        0 => println!("layout          nodes ({node_bytes} bytes of nodes)"),
+        b => println!(
+            "layout          blocked ({} blocks, {b} bytes; {node_bytes} bytes of nodes, {:.3}x)",
+            scene.blocks().len(),
+            b as f64 / node_bytes as f64
+        ),
+    }
     println!("bytes per prim  {:.2}", s.bytes_per_prim);
     if scene.tri_count() > 0 {
         println!("bytes per tri   {:.2}", s.bytes_per_tri);

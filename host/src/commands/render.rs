@@ -127,7 +127,12 @@ impl Prepared {
     pub fn from_file(file: SceneFile) -> Result<Self> {
         let camera = file.camera()?;
         let geom = file.geometry()?;
-        let (words, build_ms) = build_words(&file.path, &geom, &BuildParams::default())?;
+        let (words, build_ms) = build_words(
+            &file.path,
+            &geom,
+            &BuildParams::default(),
+            kdray::flat::Layout::default(),
+        )?;
         let materials: Vec<Material> = file.materials.iter().map(|m| m.to_core()).collect();
         let scene = Scene::from_words(&words).map_err(|e| Error::new(&file.path, e.to_string()))?;
         let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];

@@ -109,6 +109,8 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
     let rays = rays::read_rays(&args.rays)?;
     rays::check_normalized(&args.rays, &rays)?;
     let (words, build_ms) = load_scene_words(&args.input, &args.build)?;
+    // Blocks on cache lines (see `flat::Aligned`).
+    let words = kdray::flat::Aligned::new(&words);
     let scene = Scene::from_words(&words).map_err(|e| Error::new(&args.input, e.to_string()))?;
     let pool = pool(&args.input, args.threads)?;
     let mut hits = vec![Hit::MISS; rays.len()];
@@ -145,7 +147,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         0.0
     };
     println!(
-        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} in_flight={}",
+        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} in_flight={} layout={}",
         best * 1e3,
         rays.len(),
         args.packet,
@@ -158,6 +160,11 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         },
         u8::from(args.stream),
         in_flight_count(how.in_flight),
+        if scene.blocks().is_empty() {
+            "nodes"
+        } else {
+            "blocked"
+        },
     );
     Ok(())
 }
