@@ -12,6 +12,7 @@
 # The corpus grows in fuzz/corpus/TARGET (git-ignored) from the seeds in fuzz/seeds/TARGET;
 # from_words's seeds are scenes built by fuzz/seed.sh. A finding is written to fuzz/artifacts/.
 # Each run prints libFuzzer's closing stats (execs, corpus size) on its last lines.
+# FUZZ_JOBS=N runs N targets at a time (default 1; see below).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -39,9 +40,23 @@ if [ "$mode" = nightly ] || { [ "$mode" = auto ] && cargo +nightly --version >/d
   fi
 fi
 
-for t in "${targets[@]}"; do
-  mkdir -p "fuzz/corpus/$t" "fuzz/artifacts/$t"
-  seeds=()
+host=$(rustc -vV | sed -n 's/^host: //p')
+if [ "$nightly" != true ]; then
+  # cargo-fuzz's coverage flags, which stable accepts (only the sanitizer needs nightly); with
+  # an explicit --target they stay off the build scripts, and off the workspace's own builds.
+  # All targets in one build: one resolution, and cargo compiles and links them in parallel.
+  bins=()
+  for t in "${targets[@]}"; do bins+=(--bin "$t"); done
+  echo "== building ${targets[*]} (stable, coverage, no sanitizer)"
+  RUSTFLAGS="--cfg fuzzing -Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
+-Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table \
+-Cllvm-args=-sanitizer-coverage-trace-compares" \
+    cargo build -q --manifest-path fuzz/Cargo.toml --target "$host" "${bins[@]}"
+fi
+
+# One target's run; its summary goes to stdout, its exit status to $2 (the runs may be parallel).
+run_one() {
+  local t=$1 rc_file=$2 log status seeds=()
   [ -d "fuzz/seeds/$t" ] && seeds=("fuzz/seeds/$t")
   echo "== fuzz $t for ${secs}s ($([ "$nightly" = true ] && echo 'nightly, ASan' || echo 'stable, no sanitizer'))"
   log=$(mktemp)
@@ -50,22 +65,36 @@ for t in "${targets[@]}"; do
     cargo +nightly fuzz run -O "$t" "fuzz/corpus/$t" "${seeds[@]}" -- \
       -artifact_prefix="fuzz/artifacts/$t/" "${flags[@]}" >"$log" 2>&1
   else
-    # cargo-fuzz's coverage flags, which stable accepts (only the sanitizer needs nightly); with
-    # an explicit --target they stay off the build scripts, and off the workspace's own builds.
-    host=$(rustc -vV | sed -n 's/^host: //p')
-    RUSTFLAGS="--cfg fuzzing -Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
--Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table \
--Cllvm-args=-sanitizer-coverage-trace-compares" \
-      cargo build -q --manifest-path fuzz/Cargo.toml --target "$host" --bin "$t" &&
-      "${CARGO_TARGET_DIR:-fuzz/target}/$host/debug/$t" "fuzz/corpus/$t" "${seeds[@]}" \
-        -artifact_prefix="fuzz/artifacts/$t/" "${flags[@]}" >"$log" 2>&1
+    "${CARGO_TARGET_DIR:-fuzz/target}/$host/debug/$t" "fuzz/corpus/$t" "${seeds[@]}" \
+      -artifact_prefix="fuzz/artifacts/$t/" "${flags[@]}" >"$log" 2>&1
   fi
   status=$?
   set -e
   grep -E '^(#[0-9]+ +DONE|stat::|INFO: (Running|Loaded|seed corpus))|ERROR|panicked|SUMMARY' "$log" | tail -n 16
   rm -f "$log"
+  echo "$status" >"$rc_file"
+}
+
+# FUZZ_JOBS targets at a time (default 1). Each libFuzzer run is single-threaded, so on a
+# machine with spare cores (CI: 2) two at once halve the wall time at the same fuzzing time each.
+jobs_max=${FUZZ_JOBS:-1}
+out=$(mktemp -d)
+for t in "${targets[@]}"; do
+  mkdir -p "fuzz/corpus/$t" "fuzz/artifacts/$t"
+  while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do
+    wait -n || true
+  done
+  run_one "$t" "$out/$t.rc" >"$out/$t.out" 2>&1 &
+done
+wait
+failed=0
+for t in "${targets[@]}"; do
+  cat "$out/$t.out"
+  status=$(cat "$out/$t.rc" 2>/dev/null || echo 1)
   if [ "$status" -ne 0 ]; then
     echo "fuzz target $t failed (exit $status); see fuzz/artifacts/$t/" >&2
-    exit "$status"
+    failed=$status
   fi
 done
+rm -rf "$out"
+exit "$failed"
