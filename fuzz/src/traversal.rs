@@ -89,8 +89,9 @@ fn ray_of(b: &[u8]) -> Ray {
     Ray::new(origin, dir).with_range(tmin, tmax)
 }
 
-/// The target's body: decodes `data` into [`rays`] and runs both checks on the fixed scene,
-/// [`crate::packets_agree_with_scalar`] and [`fast_and_watertight_agree`]. Panics on a failure.
+/// The target's body: decodes `data` into [`rays`] and runs the checks on the fixed scene,
+/// [`crate::packets_agree_with_scalar`], [`crate::stream_agrees_with_scalar`] and
+/// [`fast_and_watertight_agree`]. Panics on a failure.
 pub fn check(data: &[u8]) {
     let scene = Scene::from_words(scene_words()).expect("the fixed scene validates");
     let rays = rays(data);
