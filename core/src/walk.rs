@@ -5,10 +5,11 @@
 //! identical by construction, ties between primitives included.
 //!
 //! A step is one node: an interior node's plane decision, or a leaf's tests, then the next node
-//! (a child or a pending node from the stack). With `HIDE` (the interleaved walk) a step ends by
-//! asking the cache for the node the ray needs next ([`crate::prefetch`]), and a leaf takes up to
+//! (a child or a pending node from the stack). With `HIDE` (the interleaved walk) a step that pops
+//! a pending node ends by asking the cache for it ([`crate::prefetch`]), and a leaf takes up to
 //! three steps: one that asks for its index list (or its one triangle), one that asks for the
-//! triangles the list names, and one that tests them. Between two steps of one ray the walk runs
+//! triangles the list names, and one that tests them; descending steps report
+//! [`Progress::Near`] and the interleaved walk takes them at once. Between two steps of one ray the walk runs
 //! steps of other rays, which hide the loads' latency — the idea of Embree's prefetching wide
 //! BVH walk and of Aila & Karras's persistent threads, applied to rays instead of lanes
 //! (differs from both: every ray keeps its own exact scalar order). Without `HIDE` the step
@@ -118,8 +119,8 @@ impl Query for Occlusion {
 pub enum Progress {
     /// The walk has ended.
     Done,
-    /// The next step reads data that is probably in cache already (the node after this one in
-    /// memory): an interleaved walk may as well take it at once.
+    /// The next step reads data that is probably in cache already (for the kd-tree: a child
+    /// after a descent, usually the next node in memory): an interleaved walk takes it at once.
     Near,
     /// The next step reads data that may be far away; with `HIDE` it has been asked for, and an
     /// interleaved walk turns to other rays meanwhile.
@@ -184,9 +185,6 @@ impl WalkState {
             None => false,
         }
     }
-
-    /// Nodes per 64-byte cache line.
-    const NODES_PER_LINE: u32 = 8;
 }
 
 impl Stepper for Scene<'_> {
@@ -254,7 +252,6 @@ impl Stepper for Scene<'_> {
             }
             return self.next_pending::<HIDE>(s);
         }
-        let here = s.index;
         let axis = node.axis();
         let t_plane = (node.split() - s.origin[axis]) * s.inv_dir[axis];
         // The near child ends, the far child starts, at the plane (its bracket, if watertight).
@@ -299,13 +296,11 @@ impl Stepper for Scene<'_> {
             }
             (false, false) => return self.next_pending::<HIDE>(s),
         }
-        if s.index / WalkState::NODES_PER_LINE == here / WalkState::NODES_PER_LINE {
-            return Progress::Near;
-        }
-        if HIDE {
-            self.prefetch_node(s.index);
-        }
-        Progress::Far
+        // Descending continues at once: the below child follows its parent in memory, and on
+        // the dragon's diffuse rays switching rays at every jump to the above child (with a
+        // prefetch of it) ran slower than switching only at pops and leaves (docs/BENCHMARKS.md,
+        // "Ray streams").
+        Progress::Near
     }
 }
 

@@ -24,14 +24,15 @@ fn stream_rays() -> impl Strategy<Value = Vec<Ray>> {
     prop::collection::vec(packet_rays(), 1..16).prop_map(|runs| runs.concat())
 }
 
-/// The coherence rules tried: the default, and one that admits any two rays of an octant (so
-/// that most of a random stream becomes packets).
+/// The coherence rules tried: the default (any two rays of an octant, so that most of a random
+/// stream becomes packets), and a strict one (directions within ~25°, origins within 5 % of the
+/// scene's diagonal) under which runs break off part way.
 fn rules() -> impl Strategy<Value = Coherence> {
     prop_oneof![
         Just(Config::default().coherence),
         Just(Coherence {
-            min_cos: -1.0,
-            max_origin: 10.0,
+            min_cos: 0.9,
+            max_origin: 0.05,
         }),
     ]
 }

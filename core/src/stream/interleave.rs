@@ -73,10 +73,15 @@ pub(crate) fn run<W, C, Q, const N: usize>(
             let slot = &mut slots[k];
             // Steps whose next node is probably cached are taken at once; a step that had to
             // ask for far data hands over to the next ray.
+            // (One in flight has nothing to overlap: it runs the plain walk, no prefetch.)
             let progress = loop {
-                match layout.step::<C, Q, true>(&mut slot.state, &mut slot.query) {
-                    Progress::Near => {}
-                    p => break p,
+                let p = if N == 1 {
+                    layout.step::<C, Q, false>(&mut slot.state, &mut slot.query)
+                } else {
+                    layout.step::<C, Q, true>(&mut slot.state, &mut slot.query)
+                };
+                if p != Progress::Near {
+                    break p;
                 }
             };
             if progress == Progress::Far {

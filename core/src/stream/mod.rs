@@ -7,8 +7,8 @@
 //!    stay packets without paying for a sort;
 //! 2. sorts the other rays by octant, origin and direction ([`order`]), and traces the coherent
 //!    runs of that order as packets;
-//! 3. traces what is left as single rays, [`InFlight`] walks at once, interleaved so that their
-//!    memory loads overlap ([`interleave`]).
+//! 3. traces what is left as single rays, [`InFlight`] walks at once (more than one interleaved
+//!    so that their memory loads overlap, [`interleave`]).
 //!
 //! Every answer equals the single-ray walk's ([`Scene::intersect_in`], [`Scene::occluded_in`]):
 //! the interleaved walk runs the same steps, and the packet walks match it lane by lane (the same
@@ -63,8 +63,10 @@ pub enum InFlight {
     /// One: the plain walk, no prefetching.
     One,
     Four,
-    #[default]
     Eight,
+    /// The default: the fastest for the dragon's diffuse rays (docs/BENCHMARKS.md, "Ray
+    /// streams"), the rays a stream's single-ray path gets.
+    #[default]
     Sixteen,
 }
 
@@ -93,9 +95,12 @@ impl Default for Config {
             mode: Mode::Fast,
             packets: Packets::default(),
             in_flight: InFlight::default(),
+            // Same octant, whatever the directions and origins within it: on the dragon's
+            // diffuse rays every looser rule ran faster (docs/BENCHMARKS.md, "Ray streams"),
+            // since a ray left out of a packet takes the slower single-ray path.
             coherence: Coherence {
-                min_cos: 0.9,
-                max_origin: 0.05,
+                min_cos: -1.0,
+                max_origin: f32::INFINITY,
             },
         }
     }

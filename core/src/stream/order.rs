@@ -88,7 +88,7 @@ pub struct Coherence {
     /// octant; 1: only equal directions).
     pub min_cos: f32,
     /// Largest distance between the first ray's origin and another's, as a fraction of the scene
-    /// box's diagonal.
+    /// box's diagonal (+∞: any).
     pub max_origin: f32,
 }
 

@@ -92,7 +92,12 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool, cons
     rule: &Coherence,
 ) {
     let [lo, hi] = scene.bounds();
-    let max_origin = rule.max_origin * (hi - lo).length();
+    // (An infinite fraction admits any origin, even in a scene box of zero size.)
+    let max_origin = if rule.max_origin.is_finite() {
+        rule.max_origin * (hi - lo).length()
+    } else {
+        rule.max_origin
+    };
     let max_origin2 = max_origin * max_origin;
     let scale = origin_scale(lo, hi);
     const { assert!(L::WIDTH <= 16) };

@@ -33,8 +33,9 @@ pub struct TraceArgs {
     #[arg(long)]
     pub stream: bool,
     /// Single-ray walks in flight at once, interleaved so that their memory loads overlap: 1, 4,
-    /// 8 or 16 (default: 1 for `--packet 1`, the plain walk; 8 for `--stream`). Ignored by
-    /// `--packet 4/8` without `--stream`.
+    /// 8 or 16 (default: 1, the plain walk, for `--packet 1`; 16 for `--stream`; see
+    /// docs/BENCHMARKS.md). Ignored by `--packet 4/8` without
+    /// `--stream`.
     #[arg(long, value_parser = parse_in_flight)]
     pub in_flight: Option<InFlight>,
     /// Worker threads (default: all cores; at most 16 per core).
