@@ -318,9 +318,11 @@ impl Scene<'_> {
     }
 
     /// Walks `ray` to the end for `query`, one step after another (the one-ray walk); over the
-    /// blocks when the scene has them ([`crate::blocked::walk`]: the same decisions and hits).
+    /// blocks when the scene has them and the core is built with the `blocked` feature
+    /// ([`crate::blocked::walk`]: the same decisions and hits).
     #[inline(always)]
     pub(crate) fn walk<C: Contents, Q: Query>(&self, ray: &Ray, query: &mut Q) {
+        #[cfg(feature = "blocked")]
         if !self.blocks().is_empty() {
             return self.walk_blocked::<C, Q>(ray, query);
         }

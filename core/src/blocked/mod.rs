@@ -52,6 +52,7 @@
 //! exactly the node tree, so it is bounded as that one is.
 
 pub mod validate;
+#[cfg(feature = "blocked")]
 pub mod walk;
 
 /// Words per block.
