@@ -118,6 +118,17 @@ fn main() {
         trace_packets::<f32x8>(&scene, r, h);
         to_input_ids(&scene, h);
     });
+    // The ray-stream API with its defaults (same-octant 8-wide packets, 16 single-ray walks in
+    // flight); the scratch is the caller's and made once, the sorting is timed.
+    let config = kdray_core::stream::Config::default();
+    let most = sets.iter().map(|s| s.len()).max().unwrap_or(0);
+    let mut scratch = vec![0u64; kdray_core::stream::scratch_words(most)];
+    run("kdray stream", None, &mut |r, h| {
+        let words = kdray_core::stream::scratch_words(r.len());
+        kdray_core::stream::intersect(&scene, &config, r, h, &mut scratch[..words])
+            .expect("stream buffers sized by scratch_words");
+        to_input_ids(&scene, h);
+    });
 
     let start = Instant::now();
     let bvh = BvhPeer::build(tris);
