@@ -74,6 +74,9 @@ pub struct Pcg32 {
 }
 
 impl Pcg32 {
+    /// A generator in a fixed state, as a placeholder where one is needed before any seeding.
+    pub const IDLE: Self = Self { state: 0, inc: 1 };
+
     /// The generator for `seed` on stream `stream` (streams are independent sequences).
     pub fn new(seed: u64, stream: u64) -> Self {
         let mut rng = Self {

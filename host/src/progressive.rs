@@ -18,7 +18,7 @@
 use core::ops::Range;
 use core::sync::atomic::{AtomicU64, Ordering};
 use kdray_core::camera::Camera;
-use kdray_core::render::{Frame, RenderError, SampleSums};
+use kdray_core::render::{Frame, PixelSamples, RenderError, SampleSums, Wavefront};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -217,18 +217,38 @@ fn pass<C: Camera + Sync>(
         .zip(film.count.par_chunks_mut(w))
         .zip(counts.par_chunks(w))
         .enumerate()
-        .try_for_each(|(r, ((sums, done), n))| {
+        .try_for_each_init(Wave::default, |wave, (r, ((sums, done), n))| {
             let y = first_row + r as u32;
-            for x in 0..w {
-                if n[x] > 0 {
-                    frame.add_samples(x as u32, y, done[x]..done[x] + n[x], &mut sums[x])?;
-                    done[x] += n[x];
-                }
+            let jobs: Vec<PixelSamples> = (0..w)
+                .map(|x| PixelSamples {
+                    x: x as u32,
+                    y,
+                    samples: done[x]..done[x] + n[x],
+                })
+                .collect();
+            frame.add_pixels(&jobs, sums, wave.get())?;
+            for (done, n) in done.iter_mut().zip(n) {
+                *done += n;
             }
             progress.fetch_add(n.iter().map(|&n| u64::from(n)).sum(), Ordering::Relaxed);
             Ok(())
         })?;
     Ok(film.sums.iter().map(|s| s.rays).sum::<u64>() - rays_before)
+}
+
+/// The paths of a row's wavefront with `--bounces stream`: a row of the default 512-pixel image
+/// gives eight wavefronts a pass (docs/BENCHMARKS.md, "Render with ray streams").
+pub const WAVEFRONT: usize = 512;
+
+/// A rayon worker's wavefront (~110 KB, on the heap), made once per piece of work rayon hands
+/// it and reused for every row of that piece; read only with `--bounces stream`.
+#[derive(Default)]
+struct Wave(Option<Box<Wavefront<WAVEFRONT>>>);
+
+impl Wave {
+    fn get(&mut self) -> &mut Wavefront<WAVEFRONT> {
+        self.0.get_or_insert_with(|| Box::new(Wavefront::new()))
+    }
 }
 
 /// How many samples each pixel gets in an adaptive pass of about `budget` samples.

@@ -8,7 +8,10 @@ use kdray::Geometry;
 use kdray::progressive::{self, Plan, Stop};
 use kdray_core::Scene;
 use kdray_core::camera::Pinhole;
-use kdray_core::render::{self, Bounces, Frame, Material, MaterialKind, Settings};
+use kdray_core::render::{
+    self, Bounces, Frame, Material, MaterialKind, PixelSamples, RenderError, SampleSums, Settings,
+    Wavefront,
+};
 use kdray_core::traverse::Mode;
 use kdray_tests::strategies::scene_words;
 
@@ -97,8 +100,17 @@ fn passes_and_bands_give_render_rows_pixels_bit_for_bit() {
     let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
     render::emitters(&scene, &materials, &mut lights);
     let cam = camera();
-    for spp in [1, 8, 21] {
-        let s = settings(spp);
+    for (spp, bounces) in [
+        (1, Bounces::Packets),
+        (8, Bounces::Packets),
+        (21, Bounces::Packets),
+        (1, Bounces::Stream),
+        (21, Bounces::Stream),
+    ] {
+        let s = Settings {
+            bounces,
+            ..settings(spp)
+        };
         let mut whole = vec![[0.0f32; 3]; 63];
         render::render_rows(&scene, &cam, &materials, &lights, &s, 0, &mut whole).unwrap();
         let lum: Vec<f32> = whole.iter().map(|p| p[0] + p[1] + p[2]).collect();
@@ -128,8 +140,77 @@ fn passes_and_bands_give_render_rows_pixels_bit_for_bit() {
             assert_eq!(stats.passes, spp.div_ceil(8));
             banded.extend(film.mean());
         }
-        assert_eq!(bits(&whole), bits(&banded), "spp {spp}");
+        assert_eq!(bits(&whole), bits(&banded), "spp {spp}, {bounces:?}");
     }
+}
+
+/// `Frame::add_pixels` with a wavefront smaller than a pixel's samples (paths of one pixel split
+/// between wavefronts, pixels in any order, one pixel twice) adds what `add_samples` adds, bit
+/// for bit; bad jobs are refused before anything is rendered.
+#[test]
+fn wavefronts_add_what_single_pixels_add() {
+    let (geom, materials) = room();
+    let words = scene_words(&geom, 80.0);
+    let scene = Scene::from_words(&words).unwrap();
+    let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
+    render::emitters(&scene, &materials, &mut lights);
+    let cam = camera();
+    let s = Settings {
+        bounces: Bounces::Stream,
+        ..settings(8)
+    };
+    let frame = Frame {
+        scene: &scene,
+        camera: &cam,
+        materials: &materials,
+        lights: &lights,
+        settings: &s,
+    };
+    let jobs: Vec<PixelSamples> = [(4, 3, 0..13), (0, 0, 5..9), (8, 6, 0..1), (4, 3, 13..20)]
+        .into_iter()
+        .map(|(x, y, samples)| PixelSamples { x, y, samples })
+        .collect();
+    let mut wave = Wavefront::<5>::new();
+    let mut sums = vec![SampleSums::default(); jobs.len()];
+    frame.add_pixels(&jobs, &mut sums, &mut wave).unwrap();
+    let packets = Settings {
+        bounces: Bounces::Packets,
+        ..s
+    };
+    let one_by_one = Frame {
+        settings: &packets,
+        ..frame
+    };
+    for (job, got) in jobs.iter().zip(&sums) {
+        let mut want = SampleSums::default();
+        one_by_one
+            .add_samples(job.x, job.y, job.samples.clone(), &mut want)
+            .unwrap();
+        assert!(want.rays > 0);
+        assert_eq!(
+            (bits(&[got.sum.to_array(), got.sum_sq.to_array()]), got.rays),
+            (
+                bits(&[want.sum.to_array(), want.sum_sq.to_array()]),
+                want.rays
+            ),
+            "{job:?}"
+        );
+    }
+    let outside = [PixelSamples {
+        x: 9,
+        y: 0,
+        samples: 0..1,
+    }];
+    let mut one = [SampleSums::default()];
+    assert_eq!(
+        frame.add_pixels(&outside, &mut one, &mut wave),
+        Err(RenderError::BufferSize)
+    );
+    assert_eq!(
+        frame.add_pixels(&jobs, &mut one, &mut wave),
+        Err(RenderError::BufferSize)
+    );
+    assert_eq!(one[0], SampleSums::default());
 }
 
 /// The estimated RMSE is the error against the converged image: rendered against a

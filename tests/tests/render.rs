@@ -301,6 +301,12 @@ fn bad_buffers_and_empty_images_are_refused() {
         render::render_rows(&scene, &camera, &m, &[], s, first_row, &mut out)
     };
     assert_eq!(call(&s, 0, 16), Ok(()));
+    let stream = Settings {
+        bounces: Bounces::Stream,
+        ..s
+    };
+    assert_eq!(call(&stream, 0, 15), Err(RenderError::BufferSize));
+    assert_eq!(call(&stream, 1, 16), Err(RenderError::BufferSize));
     assert_eq!(call(&s, 0, 15), Err(RenderError::BufferSize));
     assert_eq!(call(&s, 1, 16), Err(RenderError::BufferSize));
     assert_eq!(call(&s, 3, 4), Ok(()));
@@ -315,7 +321,7 @@ fn bad_buffers_and_empty_images_are_refused() {
 }
 
 #[test]
-fn packed_and_single_ray_paths_render_the_same_image() {
+fn packed_single_ray_and_stream_paths_render_the_same_image() {
     // A floor, a mirror wall, a glass, a mirror and a diffuse sphere, and a small emissive
     // triangle overhead: paths end after different numbers of bounces (sky, light, depth), so a
     // pixel's packets lose lanes as they go.
@@ -368,11 +374,21 @@ fn packed_and_single_ray_paths_render_the_same_image() {
             bounces: Bounces::SingleRays,
             ..packed
         };
+        let stream = Settings {
+            bounces: Bounces::Stream,
+            ..packed
+        };
         let a = render_image(&geom, &camera, &materials, &packed);
         let b = render_image(&geom, &camera, &materials, &single);
         assert!(
             a == b,
             "spp {spp}, max_depth {max_depth}: the images differ"
+        );
+        // A wavefront of paths whose rays go as streams: the same image again.
+        let e = render_image(&geom, &camera, &materials, &stream);
+        assert!(
+            e == b,
+            "stream, spp {spp}, max_depth {max_depth}: the images differ"
         );
         // The same in watertight mode: packets and single rays agree there too.
         let tight = Settings {
@@ -383,10 +399,15 @@ fn packed_and_single_ray_paths_render_the_same_image() {
             mode: Mode::Watertight,
             ..single
         };
+        let tight_stream = Settings {
+            mode: Mode::Watertight,
+            ..stream
+        };
         let c = render_image(&geom, &camera, &materials, &tight);
         let d = render_image(&geom, &camera, &materials, &tight_single);
+        let f = render_image(&geom, &camera, &materials, &tight_stream);
         assert!(
-            c == d,
+            c == d && f == d,
             "watertight, spp {spp}, max_depth {max_depth}: the images differ"
         );
         if max_depth > 0 {

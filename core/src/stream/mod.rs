@@ -27,7 +27,7 @@ pub use order::Coherence;
 use crate::format::Scene;
 use crate::ray::{Hit, Ray};
 use crate::simd::{f32x4, f32x8};
-use crate::traverse::{Mode, by_contents};
+use crate::traverse::{Contents, Mode, by_contents};
 use trace::{Answer, AnyHits, ClosestHits};
 
 /// `u64` words of scratch a stream of `rays` rays needs: a sort key and an index per ray.
@@ -212,23 +212,60 @@ fn run<A: Answer>(
             });
         }
     };
+    by_contents!(scene, config.mode, |C| run_with::<A, C>(
+        scene, config, rays, out, pairs
+    ));
+    Ok(())
+}
+
+/// [`intersect`] for contents `C` fixed at compile time (`config.mode` is not read): for the
+/// renderer's wavefront, whose kernel is chosen once a frame. `hits` is as long as `rays` and
+/// `pairs` holds a pair of words for each ray (a shorter `pairs` leaves the rays past it
+/// untraced: the callers size it, it is not input).
+pub(crate) fn intersect_with<C: Contents>(
+    scene: &Scene,
+    config: &Config,
+    rays: &[Ray],
+    hits: &mut [Hit],
+    pairs: &mut [[u64; 2]],
+) {
+    run_with::<ClosestHits, C>(scene, config, rays, hits, pairs);
+}
+
+/// [`occluded`] for contents `C` fixed at compile time, as [`intersect_with`].
+pub(crate) fn occluded_with<C: Contents>(
+    scene: &Scene,
+    config: &Config,
+    rays: &[Ray],
+    occluded: &mut [bool],
+    pairs: &mut [[u64; 2]],
+) {
+    run_with::<AnyHits, C>(scene, config, rays, occluded, pairs);
+}
+
+fn run_with<A: Answer, C: Contents>(
+    scene: &Scene,
+    config: &Config,
+    rays: &[Ray],
+    out: &mut [A::Out],
+    pairs: &mut [[u64; 2]],
+) {
     let rule = &config.coherence;
     macro_rules! go {
-        ($c:ty, $l:ty, $p:expr) => {
+        ($l:ty, $p:expr) => {
             match config.in_flight {
-                InFlight::One => trace::stream::<A, $c, $l, $p, 1>(scene, rays, out, pairs, rule),
-                InFlight::Four => trace::stream::<A, $c, $l, $p, 4>(scene, rays, out, pairs, rule),
-                InFlight::Eight => trace::stream::<A, $c, $l, $p, 8>(scene, rays, out, pairs, rule),
+                InFlight::One => trace::stream::<A, C, $l, $p, 1>(scene, rays, out, pairs, rule),
+                InFlight::Four => trace::stream::<A, C, $l, $p, 4>(scene, rays, out, pairs, rule),
+                InFlight::Eight => trace::stream::<A, C, $l, $p, 8>(scene, rays, out, pairs, rule),
                 InFlight::Sixteen => {
-                    trace::stream::<A, $c, $l, $p, 16>(scene, rays, out, pairs, rule)
+                    trace::stream::<A, C, $l, $p, 16>(scene, rays, out, pairs, rule)
                 }
             }
         };
     }
-    by_contents!(scene, config.mode, |C| match config.packets {
-        Packets::Off => go!(C, f32x8, false),
-        Packets::Four => go!(C, f32x4, true),
-        Packets::Eight => go!(C, f32x8, true),
-    });
-    Ok(())
+    match config.packets {
+        Packets::Off => go!(f32x8, false),
+        Packets::Four => go!(f32x4, true),
+        Packets::Eight => go!(f32x8, true),
+    }
 }

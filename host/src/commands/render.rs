@@ -58,7 +58,8 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// How bounce and shadow rays are traced: `packets` (a pixel's samples advance together as
-    /// 8-wide packets) or `single` (each ray through the scalar walk). Same image either way.
+    /// 8-wide packets), `single` (each ray through the scalar walk) or `stream` (a row's paths
+    /// advance as one wavefront, each round's rays one ray stream). Same image every way.
     #[arg(long, value_enum, default_value_t = BouncesArg::Packets)]
     pub bounces: BouncesArg,
     /// Render only the K-th of N bands of rows (K from 1), written as .exr; `kdray merge`
@@ -76,6 +77,7 @@ pub struct RenderArgs {
 pub enum BouncesArg {
     Packets,
     Single,
+    Stream,
 }
 
 /// Parses a finite number greater than 0.
@@ -310,6 +312,7 @@ fn settings(file: &SceneFile, args: &RenderArgs) -> Result<Settings> {
         bounces: match args.bounces {
             BouncesArg::Packets => Bounces::Packets,
             BouncesArg::Single => Bounces::SingleRays,
+            BouncesArg::Stream => Bounces::Stream,
         },
         mode: if r.watertight {
             Mode::Watertight
