@@ -236,11 +236,13 @@ fn pass<C: Camera + Sync>(
     Ok(film.sums.iter().map(|s| s.rays).sum::<u64>() - rays_before)
 }
 
-/// The paths of a row's wavefront with `--bounces stream`: a row of the default 512-pixel image
-/// gives eight wavefronts a pass (docs/BENCHMARKS.md, "Render with ray streams").
-pub const WAVEFRONT: usize = 512;
+/// The paths of a worker's wavefront with `--bounces stream`: a row of a 256-pixel-wide image's
+/// pass of 8 samples. The stream sorts what it is given, so longer is more coherent; on the
+/// dragon's diffuse rays streams of 2048 to 8192 rays ran fastest, 512 clearly slower
+/// (docs/BENCHMARKS.md, "The renderer's rays as streams").
+pub const WAVEFRONT: usize = 2048;
 
-/// A rayon worker's wavefront (~110 KB, on the heap), made once per piece of work rayon hands
+/// A rayon worker's wavefront (~450 KB, on the heap), made once per piece of work rayon hands
 /// it and reused for every row of that piece; read only with `--bounces stream`.
 #[derive(Default)]
 struct Wave(Option<Box<Wavefront<WAVEFRONT>>>);

@@ -415,13 +415,15 @@ fn render_draws_the_default_scene_the_right_way_round() {
 }
 
 #[test]
-fn render_is_the_same_on_one_thread_and_two_and_with_single_ray_bounces() {
+fn render_is_the_same_on_one_thread_and_two_and_with_single_ray_or_stream_bounces() {
     let d = dir("render-threads");
     let (a, b, c) = (d.join("a.png"), d.join("b.png"), d.join("c.png"));
+    let e = d.join("e.png");
     let runs = [
         (&a, &["--threads", "1"][..]),
         (&b, &["--threads", "2"]),
         (&c, &["--bounces", "single"]),
+        (&e, &["--bounces", "stream", "--threads", "2"]),
     ];
     for (out, extra) in runs {
         let args = ["render", "-o", s(out), "--size", "16x16", "--spp", "2"];
@@ -430,6 +432,7 @@ fn render_is_the_same_on_one_thread_and_two_and_with_single_ray_bounces() {
     }
     assert_eq!(read_png(&a), read_png(&b));
     assert_eq!(read_png(&a), read_png(&c));
+    assert_eq!(read_png(&a), read_png(&e));
 }
 
 #[test]
