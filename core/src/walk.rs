@@ -15,8 +15,9 @@
 //! (differs from both: every ray keeps its own exact scalar order). Without `HIDE` the step
 //! compiles to the plain walk (the phases and prefetches are constants that fold away).
 //!
-//! Another node layout supplies its own walk by implementing [`Stepper`] for its scene type; the
-//! interleaved driver is generic over it.
+//! Another node layout supplies its own walk by implementing [`Stepper`] (the blocks section's is
+//! [`crate::blocked::walk::Blocks`]); the one-ray walk and the interleaved driver are generic over
+//! it.
 
 use crate::format::{MAX_DEPTH, Scene};
 use crate::ray::{Hit, Ray};
@@ -323,13 +324,10 @@ impl Scene<'_> {
     #[inline(always)]
     pub(crate) fn walk<C: Contents, Q: Query>(&self, ray: &Ray, query: &mut Q) {
         #[cfg(feature = "blocked")]
-        if !self.blocks().is_empty() {
-            return self.walk_blocked::<C, Q>(ray, query);
+        if let Some(blocks) = crate::blocked::walk::Blocks::new(self) {
+            return walk_to_end::<_, C, Q>(&blocks, ray, query);
         }
-        let mut state = WalkState::EMPTY;
-        if self.begin::<C>(ray, &mut state) {
-            while self.step::<C, Q, false>(&mut state, query) != Progress::Done {}
-        }
+        walk_to_end::<_, C, Q>(self, ray, query)
     }
 
     /// Tests one primitive against `ray` given the ray's [`Shear`] (unused unless watertight).
@@ -352,6 +350,15 @@ impl Scene<'_> {
         }
         let (tri, min_det2) = self.prepared_triangle(prim);
         tri.intersect_prepared(ray, min_det2)
+    }
+}
+
+/// Walks `ray` over `layout` to the end for `query`, one plain step after another.
+#[inline(always)]
+fn walk_to_end<W: Stepper, C: Contents, Q: Query>(layout: &W, ray: &Ray, query: &mut Q) {
+    let mut state = W::empty_state();
+    if layout.begin::<C>(ray, &mut state) {
+        while layout.step::<C, Q, false>(&mut state, query) != Progress::Done {}
     }
 }
 

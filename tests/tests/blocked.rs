@@ -1,6 +1,7 @@
-//! The blocked layout (format v7's blocks section): the walk over blocks returns exactly the hits
-//! of the walk over nodes (t, primitive and barycentrics bit for bit, closest and any hit, fast
-//! and watertight), on the same random grid scenes as the brute-force tests; and validation
+//! The blocked layout (format v7's blocks section): the walk over blocks, alone or interleaved
+//! (1 to 16 in flight, and in a stream without packets), returns exactly the hits of the walk
+//! over nodes (t, primitive and barycentrics bit for bit, closest and any hit, fast and
+//! watertight), on the same random grid scenes as the brute-force tests; and validation
 //! rejects each kind of damage to a blocks section with its own error.
 
 use glam::Vec3;
@@ -9,6 +10,7 @@ use kdray::build::{BuildParams, build};
 use kdray::flat::{Layout, serialize_as};
 use kdray_core::blocked::{self, AXES_WORD, BLOCK_WORDS, REFS_WORD, kind};
 use kdray_core::format::{FormatError, VERSION, contents, header, seal};
+use kdray_core::stream::{self, Config, InFlight, Packets};
 use kdray_core::traverse::Mode;
 use kdray_core::{Hit, Scene};
 use kdray_tests::strategies::{grid_geometry, traversal_ray};
@@ -49,6 +51,40 @@ proptest! {
                 let (a, b) = (classic.intersect_in(mode, ray), blocked.intersect_in(mode, ray));
                 prop_assert_eq!(bits(&a), bits(&b), "{:?} {:?}", mode, ray);
                 prop_assert_eq!(classic.occluded_in(mode, ray), blocked.occluded_in(mode, ray));
+            }
+        }
+    }
+
+    /// The levers together: many walks over the blocks in flight (and a stream's single rays,
+    /// sorted) return the node walk's hits ray by ray, whichever ray shares the walk with which.
+    #[test]
+    fn interleaved_blocked_walks_return_the_node_walks_hits(
+        geom in grid_geometry(3),
+        isect in prop_oneof![Just(80.0), Just(2.0), Just(20.0)],
+        rays in prop::collection::vec(traversal_ray(), 1..60),
+    ) {
+        let (nodes, blocks) = both_layouts(&geom, isect);
+        let classic = Scene::from_words(&nodes).unwrap();
+        let blocked = Scene::from_words(&blocks).unwrap();
+        let n = rays.len();
+        for mode in [Mode::Fast, Mode::Watertight] {
+            let want: Vec<[u32; 4]> = rays.iter().map(|r| bits(&classic.intersect_in(mode, r))).collect();
+            let want_occ: Vec<bool> = rays.iter().map(|r| classic.occluded_in(mode, r)).collect();
+            for in_flight in [InFlight::One, InFlight::Four, InFlight::Eight, InFlight::Sixteen] {
+                let mut hits = vec![Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 }; n];
+                stream::intersect_interleaved(&blocked, mode, in_flight, &rays, &mut hits).unwrap();
+                let got: Vec<[u32; 4]> = hits.iter().map(bits).collect();
+                prop_assert_eq!(&got, &want, "{:?} {:?}", mode, in_flight);
+                let mut occ = vec![!want_occ[0]; n];
+                stream::occluded_interleaved(&blocked, mode, in_flight, &rays, &mut occ).unwrap();
+                prop_assert_eq!(&occ, &want_occ, "{:?} {:?}", mode, in_flight);
+                let config = Config { mode, packets: Packets::Off, in_flight, ..Config::default() };
+                let mut scratch = vec![u64::MAX; stream::scratch_words(n)];
+                stream::intersect(&blocked, &config, &rays, &mut hits, &mut scratch).unwrap();
+                let got: Vec<[u32; 4]> = hits.iter().map(bits).collect();
+                prop_assert_eq!(&got, &want, "stream {:?}", config);
+                stream::occluded(&blocked, &config, &rays, &mut occ, &mut scratch).unwrap();
+                prop_assert_eq!(&occ, &want_occ, "stream {:?}", config);
             }
         }
     }

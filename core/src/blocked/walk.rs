@@ -1,5 +1,6 @@
 //! The scalar walk over blocks: the walk of [`crate::traverse`] (pbrt-v3's, with its exact rules)
-//! on the blocked layout, one cache line per three levels.
+//! on the blocked layout, one cache line per three levels, as resumable steps ([`Stepper`]), so
+//! that the one-ray walk and the interleaved walk of [`crate::stream`] both run it.
 //!
 //! On entering a block, one ray computes the distances to all seven of its planes at once
 //! ([`plane_distances`]: 8-wide, the same `(split − o) · (1/d)[axis]` f32 operations as the
@@ -9,13 +10,23 @@
 //! closest-candidate skip with [`entry_with_slack`], and in conservative mode the [`widen`]ed
 //! distances. Validation makes the blocked tree the node tree, so both walks visit the same
 //! leaves in the same order with the same intervals, and return the same hits bit for bit
-//! (ties included); `tests/tests/blocked.rs` checks it.
+//! (ties included); `tests/tests/blocked.rs` checks it. A step is one position of a block (a
+//! node of the node walk), a block reference (the node the child block's root slot repeats: the
+//! step only moves there, deciding nothing), or one phase of a leaf; the phases and the lazily
+//! computed distances below change when data is read, never what is decided.
+//!
+//! With `HIDE` (the interleaved walk) the steps that read far data end [`Progress::Far`] after
+//! asking the cache for it, as the node walk's do ([`crate::walk`]): entering a child block
+//! (its distances are computed at the next step, when the line has had time to arrive), a pop
+//! to another block, and a leaf's loads: its node (a leaf is named by its node, see
+//! [`super`]), index list and triangles, one step each. Descending inside a block, and a pop
+//! that stays in the block, read the line the ray already holds: [`Progress::Near`].
 
 use super::{AXES_WORD, Block, is_empty_at, is_interior, kind, reference_at};
 use crate::format::{MAX_DEPTH, Scene};
 use crate::ray::Ray;
 use crate::traverse::{Contents, entry_interval, entry_with_slack, widen};
-use crate::walk::Query;
+use crate::walk::{Progress, Query, Stepper};
 use wide::{f32x8, u32x8};
 
 /// One pending far child: block, position in it, and its `(tmin, tmax)`.
@@ -60,102 +71,241 @@ fn prefetch_children(blocks: &[Block], block: &Block) {
     }
 }
 
-impl Scene<'_> {
-    /// The front-to-back walk over the blocks section for `query`, the node walk's twin
-    /// ([`crate::walk`]; see there for the conservative mode). The caller has checked that the
-    /// section is present.
+/// The walk over a scene's blocks section, as a [`Stepper`] (the node walk's is the scene's own).
+#[derive(Clone, Copy, Debug)]
+pub struct Blocks<'a, 's>(&'a Scene<'s>);
+
+impl<'a, 's> Blocks<'a, 's> {
+    /// The walk over `scene`'s blocks, if it has a blocks section.
     #[inline(always)]
-    pub(crate) fn walk_blocked<C: Contents, Q: Query>(&self, ray: &Ray, query: &mut Q) {
-        let Some((mut tmin, mut tmax)) = entry_interval::<C>(ray, self.bounds()) else {
-            return;
-        };
-        let blocks = self.blocks();
-        let inv_dir = ray.dir.recip();
-        let (origin, inv) = (ray.origin.to_array(), inv_dir.to_array());
-        let mut best_t = ray.tmax;
-        let mut stack: heapless::Vec<Pending, MAX_DEPTH> = heapless::Vec::new();
-        let mut b = 0u32;
-        let mut block = &blocks[0];
-        let mut t = plane_distances(block, origin, inv);
-        prefetch_children(blocks, block);
-        let mut p = 0usize;
-        loop {
-            // The node walk's skip of a node entered beyond the closest candidate (see there).
-            if !(best_t < entry_with_slack(tmin)) {
-                if is_interior(block, p) {
-                    let axis = super::axis(block, p) as usize;
-                    let t_plane = t[p];
-                    let (far_start, near_end) = if C::CONSERVATIVE {
-                        widen(t_plane)
-                    } else {
-                        (t_plane, t_plane)
-                    };
-                    let (below, above) = (2 * p + 1, 2 * p + 2);
-                    let (near, far) = if inv[axis] < 0.0 {
-                        (above, below)
-                    } else {
-                        (below, above)
-                    };
-                    let visit_near = !(near_end < tmin) && !is_empty_at(block, near);
-                    let visit_far = !(far_start > tmax) && !is_empty_at(block, far);
-                    // At most one pending item per level, and validation bounds the depth by
-                    // MAX_DEPTH: the push cannot fail.
-                    match (visit_near, visit_far) {
-                        (true, true) => {
-                            let _ = stack.push((b, far as u32, tmin.max(far_start), tmax));
-                            tmax = tmax.min(near_end);
-                            p = near;
-                            continue;
-                        }
-                        (true, false) => {
-                            tmax = tmax.min(near_end);
-                            p = near;
-                            continue;
-                        }
-                        (false, true) => {
-                            tmin = tmin.max(far_start);
-                            p = far;
-                            continue;
-                        }
-                        (false, false) => {}
-                    }
-                } else {
-                    let r = reference_at(block, p);
-                    let value = r >> 2;
-                    let one = [value];
-                    let leaf;
-                    let prims: &[u32] = match r & 3 {
-                        kind::BLOCK => {
-                            b = value >> 3;
-                            block = &blocks[b as usize];
-                            prefetch_children(blocks, block);
-                            t = plane_distances(block, origin, inv);
-                            p = (value & 7) as usize;
-                            continue;
-                        }
-                        kind::LEAF => {
-                            leaf = self.leaf_prims(&self.node(value));
-                            leaf.as_slice()
-                        }
-                        kind::ONE => &one[..],
-                        _ => &[],
-                    };
-                    let (closest, stop) = query.leaf::<C>(self, prims);
-                    best_t = closest;
-                    if stop {
-                        return;
-                    }
-                }
-            }
-            let Some((nb, np, a, c)) = stack.pop() else {
-                return;
-            };
-            if nb != b {
-                b = nb;
-                block = &blocks[b as usize];
-                t = plane_distances(block, origin, inv);
-            }
-            (p, tmin, tmax) = (np as usize, a, c);
+    pub fn new(scene: &'a Scene<'s>) -> Option<Self> {
+        (!scene.blocks().is_empty()).then_some(Self(scene))
+    }
+}
+
+/// With `HIDE`, whether the current block's plane distances are still to be computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Planes {
+    /// Computed.
+    Ready,
+    /// Popped back into this block: compute them.
+    Popped,
+    /// Entered by a reference: compute them and ask for the block's children.
+    Entered,
+}
+
+/// With `HIDE`, where a leaf's loads stand (the node walk's leaf phases, with one more: the
+/// blocks name a leaf of several primitives by its node, which holds its count and offset).
+mod phase {
+    /// Nothing asked for yet.
+    pub const START: u8 = 0;
+    /// The leaf's node was asked for.
+    pub const NODE: u8 = 1;
+    /// Its index list was.
+    pub const LIST: u8 = 2;
+    /// Its triangles were: test them.
+    pub const TEST: u8 = 3;
+}
+
+/// The block walk's state for one ray: the ray's origin and reciprocal direction, the block and
+/// position it is at with the block's plane distances, the interval, the closest candidate so
+/// far, the leaf phase, and the pending far children.
+#[derive(Clone, Debug)]
+pub struct BlockState<'s> {
+    origin: [f32; 3],
+    inv: [f32; 3],
+    index: u32,
+    block: &'s Block,
+    p: usize,
+    t: [f32; 8],
+    tmin: f32,
+    tmax: f32,
+    best_t: f32,
+    planes: Planes,
+    phase: u8,
+    stack: heapless::Vec<Pending, MAX_DEPTH>,
+}
+
+impl<'s> Stepper for Blocks<'_, 's> {
+    type State = BlockState<'s>;
+
+    #[inline(always)]
+    fn empty_state() -> BlockState<'s> {
+        BlockState {
+            origin: [0.0; 3],
+            inv: [0.0; 3],
+            index: 0,
+            block: &[0; super::BLOCK_WORDS],
+            p: 0,
+            t: [0.0; 8],
+            tmin: 0.0,
+            tmax: 0.0,
+            best_t: 0.0,
+            planes: Planes::Ready,
+            phase: phase::START,
+            stack: heapless::Vec::new(),
         }
+    }
+
+    /// Clips the ray to the scene's box as the node walk does and starts at block 0's slot 0.
+    #[inline(always)]
+    fn begin<C: Contents>(&self, ray: &Ray, s: &mut BlockState<'s>) -> bool {
+        let scene = self.0;
+        let Some((tmin, tmax)) = entry_interval::<C>(ray, scene.bounds()) else {
+            return false;
+        };
+        let blocks = scene.blocks();
+        let Some(root) = blocks.first() else {
+            return false;
+        };
+        (s.origin, s.inv) = (ray.origin.to_array(), ray.dir.recip().to_array());
+        (s.tmin, s.tmax, s.best_t) = (tmin, tmax, ray.tmax);
+        (s.index, s.block, s.p) = (0, root, 0);
+        s.t = plane_distances(root, s.origin, s.inv);
+        prefetch_children(blocks, root);
+        (s.planes, s.phase) = (Planes::Ready, phase::START);
+        s.stack.clear();
+        true
+    }
+
+    /// One position of the front-to-back walk: the node walk's step ([`crate::walk`], where the
+    /// conservative mode is explained) on the block's slots and references.
+    #[inline(always)]
+    fn step<C: Contents, Q: Query, const HIDE: bool>(
+        &self,
+        s: &mut BlockState<'s>,
+        q: &mut Q,
+    ) -> Progress {
+        let (scene, blocks) = (self.0, self.0.blocks());
+        if HIDE && s.planes != Planes::Ready {
+            s.t = plane_distances(s.block, s.origin, s.inv);
+            if s.planes == Planes::Entered {
+                prefetch_children(blocks, s.block);
+            }
+            s.planes = Planes::Ready;
+        }
+        let (block, p) = (s.block, s.p);
+        // The node walk's skip of a node entered beyond the closest candidate (see there).
+        if s.best_t < entry_with_slack(s.tmin) {
+            return self.next_pending::<HIDE>(s);
+        }
+        if is_interior(block, p) {
+            let axis = super::axis(block, p) as usize;
+            let t_plane = s.t[p];
+            let (far_start, near_end) = if C::CONSERVATIVE {
+                widen(t_plane)
+            } else {
+                (t_plane, t_plane)
+            };
+            let (below, above) = (2 * p + 1, 2 * p + 2);
+            let (near, far) = if s.inv[axis] < 0.0 {
+                (above, below)
+            } else {
+                (below, above)
+            };
+            let visit_near = !(near_end < s.tmin) && !is_empty_at(block, near);
+            let visit_far = !(far_start > s.tmax) && !is_empty_at(block, far);
+            // At most one pending item per level, and validation bounds the depth by
+            // MAX_DEPTH: the push cannot fail.
+            match (visit_near, visit_far) {
+                (true, true) => {
+                    let _ = s
+                        .stack
+                        .push((s.index, far as u32, s.tmin.max(far_start), s.tmax));
+                    s.tmax = s.tmax.min(near_end);
+                    s.p = near;
+                }
+                (true, false) => {
+                    s.tmax = s.tmax.min(near_end);
+                    s.p = near;
+                }
+                (false, true) => {
+                    s.tmin = s.tmin.max(far_start);
+                    s.p = far;
+                }
+                (false, false) => return self.next_pending::<HIDE>(s),
+            }
+            return Progress::Near;
+        }
+        let r = reference_at(block, p);
+        let value = r >> 2;
+        let one = [value];
+        let leaf;
+        let prims: &[u32] = match r & 3 {
+            kind::BLOCK => {
+                s.index = value >> 3;
+                s.block = &blocks[s.index as usize];
+                s.p = (value & 7) as usize;
+                if HIDE {
+                    crate::prefetch::t0(s.block);
+                    s.planes = Planes::Entered;
+                    return Progress::Far;
+                }
+                prefetch_children(blocks, s.block);
+                s.t = plane_distances(s.block, s.origin, s.inv);
+                return Progress::Near;
+            }
+            kind::LEAF => {
+                if HIDE && s.phase == phase::START {
+                    scene.prefetch_node(value);
+                    s.phase = phase::NODE;
+                    return Progress::Far;
+                }
+                let node = scene.node(value);
+                if HIDE && s.phase == phase::NODE {
+                    let list = scene.prefetch_leaf(&node);
+                    s.phase = if list { phase::LIST } else { phase::TEST };
+                    return Progress::Far;
+                }
+                leaf = scene.leaf_prims(&node);
+                if HIDE && s.phase == phase::LIST {
+                    scene.prefetch_prims(leaf.as_slice());
+                    s.phase = phase::TEST;
+                    return Progress::Far;
+                }
+                leaf.as_slice()
+            }
+            kind::ONE => {
+                if HIDE && s.phase == phase::START {
+                    scene.prefetch_prims(&one);
+                    s.phase = phase::TEST;
+                    return Progress::Far;
+                }
+                &one[..]
+            }
+            _ => &[],
+        };
+        s.phase = phase::START;
+        let (closest, stop) = q.leaf::<C>(scene, prims);
+        s.best_t = closest;
+        if stop {
+            return Progress::Done;
+        }
+        self.next_pending::<HIDE>(s)
+    }
+}
+
+impl<'s> Blocks<'_, 's> {
+    /// Pops the next pending position, or ends the walk. A pop to another block asks the cache
+    /// for it with `HIDE` (its distances wait for the next step); a pop inside the block reads
+    /// only the line the ray holds.
+    #[inline(always)]
+    fn next_pending<const HIDE: bool>(&self, s: &mut BlockState<'s>) -> Progress {
+        let Some((index, p, tmin, tmax)) = s.stack.pop() else {
+            return Progress::Done;
+        };
+        (s.p, s.tmin, s.tmax) = (p as usize, tmin, tmax);
+        if index == s.index {
+            return Progress::Near;
+        }
+        s.index = index;
+        s.block = &self.0.blocks()[index as usize];
+        if HIDE {
+            crate::prefetch::t0(s.block);
+            s.planes = Planes::Popped;
+        } else {
+            s.t = plane_distances(s.block, s.origin, s.inv);
+        }
+        Progress::Far
     }
 }

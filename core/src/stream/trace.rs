@@ -1,6 +1,6 @@
 //! The stream's work, for either query: coherent runs of the input as packets, then the rest
 //! sorted ([`super::order`]), the sorted coherent runs as packets, and what remains as interleaved
-//! single rays ([`super::interleave`]).
+//! single rays ([`super::interleave`]), walking the blocks when the scene has them.
 
 use super::interleave;
 use super::order::{Coherence, key, origin_scale};
@@ -75,11 +75,29 @@ pub(crate) fn interleaved<A: Answer, C: Contents, const N: usize>(
     rays: &[Ray],
     out: &mut [A::Out],
 ) {
-    interleave::run::<Scene, C, A::Q, N>(scene, rays, 0..rays.len(), A::query::<C>, |i, q| {
+    singles::<A, C, N>(scene, rays, 0..rays.len(), out);
+}
+
+/// Traces the rays `order` names as single rays, `N` walks in flight, answers into `out`: over
+/// the blocks when the scene has them and the core is built with the `blocked` feature (as
+/// the one-ray walk chooses, [`Scene::walk`]), else over the nodes.
+#[inline(always)]
+fn singles<A: Answer, C: Contents, const N: usize>(
+    scene: &Scene,
+    rays: &[Ray],
+    order: impl Iterator<Item = usize>,
+    out: &mut [A::Out],
+) {
+    let finish = |i: usize, q: &A::Q| {
         if let Some(o) = out.get_mut(i) {
             *o = A::answer(q);
         }
-    });
+    };
+    #[cfg(feature = "blocked")]
+    if let Some(blocks) = crate::blocked::walk::Blocks::new(scene) {
+        return interleave::run::<_, C, A::Q, N>(&blocks, rays, order, A::query::<C>, finish);
+    }
+    interleave::run::<_, C, A::Q, N>(scene, rays, order, A::query::<C>, finish);
 }
 
 /// The whole stream: `scratch` holds at least one `[key, index]` pair per ray. With
@@ -120,7 +138,7 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool, cons
     keys.sort_unstable();
     // Coherent runs of the sorted rays as packets; the others compacted to the front of `keys`.
     let ray_of = |e: &[u64; 2]| rays.get(e[1] as usize);
-    let mut singles = 0;
+    let mut n_singles = 0;
     let mut i = 0;
     while i < m {
         if PACKETS {
@@ -142,16 +160,12 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool, cons
                 continue;
             }
         }
-        keys[singles] = keys[i];
-        singles += 1;
+        keys[n_singles] = keys[i];
+        n_singles += 1;
         i += 1;
     }
-    let order = keys[..singles].iter().map(|e| e[1] as usize);
-    interleave::run::<Scene, C, A::Q, N>(scene, rays, order, A::query::<C>, |i, q| {
-        if let Some(o) = out.get_mut(i) {
-            *o = A::answer(q);
-        }
-    });
+    let order = keys[..n_singles].iter().map(|e| e[1] as usize);
+    singles::<A, C, N>(scene, rays, order, out);
 }
 
 /// A ray no kernel hits, filling unused entries of a gathered batch.
