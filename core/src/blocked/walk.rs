@@ -16,11 +16,15 @@
 //! computed distances below change when data is read, never what is decided.
 //!
 //! With `HIDE` (the interleaved walk) the steps that read far data end [`Progress::Far`] after
-//! asking the cache for it, as the node walk's do ([`crate::walk`]): entering a child block
-//! (its distances are computed at the next step, when the line has had time to arrive), a pop
-//! to another block, and a leaf's loads: its node (a leaf is named by its node, see
-//! [`super`]), index list and triangles, one step each. Descending inside a block, and a pop
-//! that stays in the block, read the line the ray already holds: [`Progress::Near`].
+//! asking the cache for it, as the node walk's do ([`crate::walk`]): a pop to another block (its
+//! distances are computed at the next step, when the line has had time to arrive), and a leaf's
+//! loads: its node (a leaf is named by its node, see [`super`]), index list and triangles, one
+//! step each. Descending inside a block, a pop that stays in the block, and entering a child
+//! block are [`Progress::Near`]: the first two read the line the ray holds, and the child blocks
+//! were asked for when the ray entered their parent ([`prefetch_children`]), a descent of one to
+//! three levels earlier. Ending entering steps `Far` instead (the child's distances one step
+//! later, with a prefetch of it) ran slower on the dragon (docs/BENCHMARKS.md, "The levers
+//! together"), as switching rays at far descents did for the node walk.
 
 use super::{AXES_WORD, Block, is_empty_at, is_interior, kind, reference_at};
 use crate::format::{MAX_DEPTH, Scene};
@@ -83,17 +87,6 @@ impl<'a, 's> Blocks<'a, 's> {
     }
 }
 
-/// With `HIDE`, whether the current block's plane distances are still to be computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Planes {
-    /// Computed.
-    Ready,
-    /// Popped back into this block: compute them.
-    Popped,
-    /// Entered by a reference: compute them and ask for the block's children.
-    Entered,
-}
-
 /// With `HIDE`, where a leaf's loads stand (the node walk's leaf phases, with one more: the
 /// blocks name a leaf of several primitives by its node, which holds its count and offset).
 mod phase {
@@ -121,7 +114,8 @@ pub struct BlockState<'s> {
     tmin: f32,
     tmax: f32,
     best_t: f32,
-    planes: Planes,
+    /// With `HIDE`, after a pop to another block: its plane distances are still to be computed.
+    stale: bool,
     phase: u8,
     stack: heapless::Vec<Pending, MAX_DEPTH>,
 }
@@ -141,7 +135,7 @@ impl<'s> Stepper for Blocks<'_, 's> {
             tmin: 0.0,
             tmax: 0.0,
             best_t: 0.0,
-            planes: Planes::Ready,
+            stale: false,
             phase: phase::START,
             stack: heapless::Vec::new(),
         }
@@ -163,7 +157,7 @@ impl<'s> Stepper for Blocks<'_, 's> {
         (s.index, s.block, s.p) = (0, root, 0);
         s.t = plane_distances(root, s.origin, s.inv);
         prefetch_children(blocks, root);
-        (s.planes, s.phase) = (Planes::Ready, phase::START);
+        (s.stale, s.phase) = (false, phase::START);
         s.stack.clear();
         true
     }
@@ -177,12 +171,9 @@ impl<'s> Stepper for Blocks<'_, 's> {
         q: &mut Q,
     ) -> Progress {
         let (scene, blocks) = (self.0, self.0.blocks());
-        if HIDE && s.planes != Planes::Ready {
+        if HIDE && s.stale {
             s.t = plane_distances(s.block, s.origin, s.inv);
-            if s.planes == Planes::Entered {
-                prefetch_children(blocks, s.block);
-            }
-            s.planes = Planes::Ready;
+            s.stale = false;
         }
         let (block, p) = (s.block, s.p);
         // The node walk's skip of a node entered beyond the closest candidate (see there).
@@ -236,11 +227,6 @@ impl<'s> Stepper for Blocks<'_, 's> {
                 s.index = value >> 3;
                 s.block = &blocks[s.index as usize];
                 s.p = (value & 7) as usize;
-                if HIDE {
-                    crate::prefetch::t0(s.block);
-                    s.planes = Planes::Entered;
-                    return Progress::Far;
-                }
                 prefetch_children(blocks, s.block);
                 s.t = plane_distances(s.block, s.origin, s.inv);
                 return Progress::Near;
@@ -302,7 +288,7 @@ impl<'s> Blocks<'_, 's> {
         s.block = &self.0.blocks()[index as usize];
         if HIDE {
             crate::prefetch::t0(s.block);
-            s.planes = Planes::Popped;
+            s.stale = true;
         } else {
             s.t = plane_distances(s.block, s.origin, s.inv);
         }
