@@ -62,8 +62,9 @@
 //!   ([`crate::blocked`], where the encoding is documented). Leaves stay in the node section
 //!   (a reference names the leaf node, or holds a one-primitive leaf's id, or marks an empty
 //!   leaf). Validation requires the blocked tree to be the node tree exactly, so both walks
-//!   return the same hits. When present, [`Scene::intersect`] and [`Scene::occluded`] walk it;
-//!   the packet walks use the nodes. The section starts on a multiple of 16 words, so the blocks
+//!   return the same hits. When present (and the core's `blocked` feature is on),
+//!   [`Scene::intersect`], [`Scene::occluded`] and the stream's interleaved single rays
+//!   ([`crate::stream`]) walk it; the packet walks use the nodes. The section starts on a multiple of 16 words, so the blocks
 //!   are cache lines when the words are 64-byte aligned (the host aligns them,
 //!   `kdray::flat::Aligned`).
 //!
