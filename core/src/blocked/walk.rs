@@ -21,7 +21,7 @@
 //! loads: its node (a leaf is named by its node, see [`super`]), index list and triangles, one
 //! step each. Descending inside a block, a pop that stays in the block, and entering a child
 //! block are [`Progress::Near`]: the first two read the line the ray holds, and the child blocks
-//! were asked for when the ray entered their parent ([`prefetch_children`]), a descent of one to
+//! were asked for when the ray entered their parent (`prefetch_children`), a descent of one to
 //! three levels earlier. Ending entering steps `Far` instead (the child's distances one step
 //! later, with a prefetch of it) ran slower on the dragon (docs/BENCHMARKS.md, "The levers
 //! together"), as switching rays at far descents did for the node walk.
