@@ -6,7 +6,8 @@
 //! along a fixed fan of rays through its box, and the three must agree (the same `t` bits; a
 //! different primitive only as a tie at that `t`), for closest hits and for occlusion. A scene
 //! with a blocks section (format v7) is also traced over its nodes
-//! ([`Scene::without_blocks`]): both walks must return the same hits bit for bit.
+//! ([`Scene::without_blocks`]): the walk over the blocks, alone and 16 interleaved, must return
+//! the node walk's hits bit for bit.
 //!
 //! Run: `cargo +nightly fuzz run from_words fuzz/corpus/from_words` (from the repository root);
 //! the corpus starts from small valid scenes (`fuzz/seed.sh`).
@@ -14,6 +15,7 @@
 
 use glam::Vec3;
 use kdray_core::format::seal;
+use kdray_core::stream::{self, InFlight};
 use kdray_core::traverse::Mode;
 use kdray_core::{Hit, Ray, Scene};
 use libfuzzer_sys::fuzz_target;
@@ -36,13 +38,29 @@ fuzz_target!(|data: &[u8]| {
         for ray in &rays {
             for mode in [Mode::Fast, Mode::Watertight] {
                 let (a, b) = (scene.intersect_in(mode, ray), nodes.intersect_in(mode, ray));
-                let bits = |h: Hit| [h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()];
                 assert_eq!(bits(a), bits(b), "{mode:?} {ray:?}");
                 assert_eq!(scene.occluded_in(mode, ray), nodes.occluded_in(mode, ray));
             }
         }
+        // The interleaved walk over the blocks (16 in flight) too.
+        for mode in [Mode::Fast, Mode::Watertight] {
+            let mut hits = vec![Hit::MISS; rays.len()];
+            let _ =
+                stream::intersect_interleaved(&scene, mode, InFlight::Sixteen, &rays, &mut hits);
+            for (ray, hit) in rays.iter().zip(&hits) {
+                assert_eq!(
+                    bits(*hit),
+                    bits(nodes.intersect_in(mode, ray)),
+                    "{mode:?} {ray:?}"
+                );
+            }
+        }
     }
 });
+
+fn bits(h: Hit) -> [u32; 4] {
+    [h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()]
+}
 
 /// Rays from outside the box towards its centre and its corners, along the axes (±0 components)
 /// and diagonals, plus rays starting at the centre; a fixed `tmin` band exercises clipping.
