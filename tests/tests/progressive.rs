@@ -86,6 +86,16 @@ fn stop(spp: u32) -> Stop {
     }
 }
 
+/// The room's scene words, its materials and its lights.
+fn lit_room() -> (Vec<u32>, Vec<Material>, Vec<u32>) {
+    let (geom, materials) = room();
+    let words = scene_words(&geom, 80.0);
+    let scene = Scene::from_words(&words).unwrap();
+    let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
+    render::emitters(&scene, &materials, &mut lights);
+    (words, materials, lights)
+}
+
 fn bits(px: &[[f32; 3]]) -> Vec<u32> {
     px.iter().flatten().map(|v| v.to_bits()).collect()
 }
@@ -94,11 +104,8 @@ fn bits(px: &[[f32; 3]]) -> Vec<u32> {
 /// every band of rows rendered alone: the pixels firmware checksums and `--tile` relies on.
 #[test]
 fn passes_and_bands_give_render_rows_pixels_bit_for_bit() {
-    let (geom, materials) = room();
-    let words = scene_words(&geom, 80.0);
+    let (words, materials, lights) = lit_room();
     let scene = Scene::from_words(&words).unwrap();
-    let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
-    render::emitters(&scene, &materials, &mut lights);
     let cam = camera();
     for (spp, bounces) in [
         (1, Bounces::Packets),
@@ -149,11 +156,8 @@ fn passes_and_bands_give_render_rows_pixels_bit_for_bit() {
 /// for bit; bad jobs are refused before anything is rendered.
 #[test]
 fn wavefronts_add_what_single_pixels_add() {
-    let (geom, materials) = room();
-    let words = scene_words(&geom, 80.0);
+    let (words, materials, lights) = lit_room();
     let scene = Scene::from_words(&words).unwrap();
-    let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
-    render::emitters(&scene, &materials, &mut lights);
     let cam = camera();
     let s = Settings {
         bounces: Bounces::Stream,
