@@ -1,6 +1,6 @@
 //! Linear radiance to 8-bit sRGB, in the core so that every target (the host's PNG, the WASM
 //! module's RGBA canvas buffer, the firmware's checksum) rounds exactly alike: the transfer
-//! function goes through the [`math`](crate::math) shim (`libm`), not the platform's `powf`.
+//! function goes through the [`crate::math`] shim (`libm`), not the platform's `powf`.
 
 use crate::math;
 

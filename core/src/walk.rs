@@ -1,6 +1,6 @@
 //! The single-ray kd-tree walk as resumable steps over an explicit state, so that one function
 //! serves both the one-ray walk ([`Scene::intersect`], [`Scene::occluded`]) and the interleaved
-//! walk that keeps many rays in flight ([`crate::stream::interleave`]). The two therefore do the
+//! walk that keeps many rays in flight (`stream/interleave.rs`). The two therefore do the
 //! same arithmetic and visit the same leaves in the same order, ray by ray: their hits are
 //! identical by construction, ties between primitives included.
 //!

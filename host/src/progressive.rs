@@ -15,6 +15,7 @@
 //! bit for bit, as the same rows of the whole image with the same `--spp` (a time or noise stop
 //! depends on how fast the band went, so it can end at other counts).
 
+use core::cell::RefCell;
 use core::ops::Range;
 use core::sync::atomic::{AtomicU64, Ordering};
 use kdray_core::camera::Camera;
@@ -217,7 +218,7 @@ fn pass<C: Camera + Sync>(
         .zip(film.count.par_chunks_mut(w))
         .zip(counts.par_chunks(w))
         .enumerate()
-        .try_for_each_init(Wave::default, |wave, (r, ((sums, done), n))| {
+        .try_for_each(|(r, ((sums, done), n))| {
             let y = first_row + r as u32;
             let jobs: Vec<PixelSamples> = (0..w)
                 .map(|x| PixelSamples {
@@ -226,7 +227,10 @@ fn pass<C: Camera + Sync>(
                     samples: done[x]..done[x] + n[x],
                 })
                 .collect();
-            frame.add_pixels(&jobs, sums, wave.get())?;
+            WAVE.with_borrow_mut(|wave| {
+                let wave = wave.get_or_insert_with(|| Box::new(Wavefront::new()));
+                frame.add_pixels(&jobs, sums, wave)
+            })?;
             for (done, n) in done.iter_mut().zip(n) {
                 *done += n;
             }
@@ -242,15 +246,11 @@ fn pass<C: Camera + Sync>(
 /// (docs/BENCHMARKS.md, "The renderer's rays as streams").
 pub const WAVEFRONT: usize = 2048;
 
-/// A rayon worker's wavefront (~450 KB, on the heap), made once per piece of work rayon hands
-/// it and reused for every row of that piece; read only with `--bounces stream`.
-#[derive(Default)]
-struct Wave(Option<Box<Wavefront<WAVEFRONT>>>);
-
-impl Wave {
-    fn get(&mut self) -> &mut Wavefront<WAVEFRONT> {
-        self.0.get_or_insert_with(|| Box::new(Wavefront::new()))
-    }
+thread_local! {
+    /// Each worker thread's wavefront (~450 KB, on the heap), made on its first stream pass and
+    /// reused for every row after, so that workers do not allocate and fault in fresh pages per
+    /// piece of work (which would also cost the two-thread render its scaling).
+    static WAVE: RefCell<Option<Box<Wavefront<WAVEFRONT>>>> = const { RefCell::new(None) };
 }
 
 /// How many samples each pixel gets in an adaptive pass of about `budget` samples.

@@ -16,7 +16,7 @@ pub enum FormatError {
         header: u32,
         actual: usize,
     },
-    /// The stored checksum is not the words' [`checksum`]: the file was damaged after writing.
+    /// The stored checksum is not the words' [`checksum`](crate::format::checksum): the file was damaged after writing.
     Checksum,
     /// A reserved header word is not zero.
     ReservedNotZero,

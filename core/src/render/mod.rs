@@ -1,12 +1,18 @@
 //! The render kernel: a unidirectional path tracer that writes linear RGB radiance into a
 //! caller's buffer, row by row, with no allocation.
 //!
-//! Each pixel's samples are jittered inside the pixel and traced eight at a time, side by side:
-//! with [`Bounces::Packets`] (the default) each round of their camera, bounce and shadow rays is one
-//! 8-wide packet, the lanes of finished paths masked: even diffuse bounces, which are incoherent,
-//! trace faster that way than one by one (docs/BENCHMARKS.md, "Which path is used when");
-//! [`Bounces::SingleRays`] sends every ray through the scalar walk ([`Scene::intersect`]) and gives
-//! the same image.
+//! Each pixel's samples are jittered inside the pixel. How their paths are traced is
+//! [`Bounces`]' choice, and every choice gives the same image:
+//! - [`Bounces::Packets`] (the default): a pixel's samples eight at a time, side by side
+//!   (`render/pixel.rs`), each round of their camera, bounce and shadow rays one 8-wide packet, the lanes
+//!   of finished paths masked;
+//! - [`Bounces::Stream`]: many pixels' paths as one wavefront ([`Wavefront`], `render/wavefront.rs`), each round of all
+//!   their rays one ray stream ([`crate::stream`]), which sorts the incoherent bounce and shadow
+//!   rays into one-octant packets — the fastest where the caller can hold a wavefront
+//!   (`kdray render`'s default);
+//! - [`Bounces::SingleRays`]: every ray through the scalar walk ([`Scene::intersect`]).
+//!
+//! One path vertex function (`render/path.rs`) serves all three.
 //!
 //! Light transport, per path vertex (at most [`Settings::max_depth`] of them):
 //! - `Diffuse` and `Emissive` surfaces scatter Lambertian-wise, by cosine-weighted sampling, so
@@ -14,8 +20,8 @@
 //!   take direct light by next-event estimation: one point picked uniformly by area on one light
 //!   picked uniformly from the caller's list, with a shadow ray;
 //! - `Mirror` reflects about the shading normal, times `albedo`;
-//! - `Glass` reflects with the exact Fresnel probability ([`optics::fresnel_dielectric`]) and
-//!   otherwise refracts ([`optics::refract`]), times `albedo` either way;
+//! - `Glass` reflects with the exact Fresnel probability ([`crate::optics::fresnel_dielectric`]) and
+//!   otherwise refracts ([`crate::optics::refract`]), times `albedo` either way;
 //! - emission is added where a camera ray or a specular bounce lands on it; after a diffuse
 //!   bounce it is not, since next-event estimation counted it. A light emits from the side its
 //!   geometric normal faces (a triangle's `(v1 − v0) × (v2 − v0)`, a sphere's outside) unless its
@@ -114,8 +120,10 @@ pub struct Settings {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Bounces {
     /// A pixel's (up to) eight samples advance together: each round of bounce rays, and of shadow
-    /// rays, is one 8-wide packet with the finished paths' lanes inactive. The faster choice where
-    /// `wide` has SIMD registers (docs/BENCHMARKS.md, "Which path is used when").
+    /// rays, is one 8-wide packet with the finished paths' lanes inactive. The default here, as it
+    /// needs no memory beyond one pixel's paths; where many pixels are rendered at once,
+    /// [`Bounces::Stream`] is faster (`kdray render`'s default; docs/BENCHMARKS.md, "The
+    /// renderer's rays as streams").
     #[default]
     Packets,
     /// Each path on its own, every ray (the camera's too) through the scalar walk: the reference,
@@ -124,7 +132,9 @@ pub enum Bounces {
     SingleRays,
     /// Many pixels' paths advance as one wavefront ([`Wavefront`]): each round of all their
     /// bounce rays, and of all their shadow rays, is one ray stream ([`crate::stream`]: coherent
-    /// runs as packets, the rest sorted and traced as interleaved single rays). Needs many
+    /// runs as packets, the rest sorted by octant and origin into one-octant packets, what is
+    /// left as interleaved single rays). Measured 1.1× (dragon scene) to 1.4× (default scene)
+    /// the speed of [`Bounces::Packets`] on one thread with 2048-path wavefronts. Needs many
     /// pixels at once: [`render_rows`] (a wavefront of [`ROWS_WAVEFRONT`] paths on the stack) and
     /// [`Frame::add_pixels`] (the caller's wavefront); [`Frame::add_samples`], one pixel, traces
     /// as [`Bounces::Packets`].

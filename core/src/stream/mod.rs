@@ -8,7 +8,7 @@
 //! 2. sorts the other rays by octant, origin and direction ([`order`]), and traces the coherent
 //!    runs of that order as packets;
 //! 3. traces what is left as single rays, [`InFlight`] walks at once (more than one interleaved
-//!    so that their memory loads overlap, [`interleave`]).
+//!    so that their memory loads overlap, `stream/interleave.rs`).
 //!
 //! Every answer equals the single-ray walk's ([`Scene::intersect_in`], [`Scene::occluded_in`]):
 //! the interleaved walk runs the same steps, and the packet walks match it lane by lane (the same

@@ -109,7 +109,8 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
         max_depth: file.render.max_depth.min(1024),
         background: Vec3::from(file.render.background),
         seed,
-        bounces: Bounces::Packets,
+        // The fastest way (docs/BENCHMARKS.md), the same image as every other.
+        bounces: Bounces::Stream,
         mode: Mode::Fast,
     };
     let modes: &[&'static str] = if args.adaptive {

@@ -57,10 +57,11 @@ pub struct RenderArgs {
     /// thread count.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// How bounce and shadow rays are traced: `packets` (a pixel's samples advance together as
-    /// 8-wide packets), `single` (each ray through the scalar walk) or `stream` (a row's paths
-    /// advance as one wavefront, each round's rays one ray stream). Same image every way.
-    #[arg(long, value_enum, default_value_t = BouncesArg::Packets)]
+    /// How bounce and shadow rays are traced: `stream` (a row's paths advance as one wavefront,
+    /// each round's rays one ray stream; the fastest measured, docs/BENCHMARKS.md), `packets` (a
+    /// pixel's samples advance together as 8-wide packets) or `single` (each ray through the
+    /// scalar walk). Same image every way.
+    #[arg(long, value_enum, default_value_t = BouncesArg::Stream)]
     pub bounces: BouncesArg,
     /// Render only the K-th of N bands of rows (K from 1), written as .exr; `kdray merge`
     /// assembles the bands. With --spp, its pixels are those of the whole render.
