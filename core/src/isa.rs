@@ -22,3 +22,9 @@ pub const fn name() -> &'static str {
         "scalar"
     }
 }
+
+/// How many `f32` lanes this build's SIMD registers hold: 8 with AVX (x86-64), otherwise 4 (SSE2,
+/// NEON, simd128, and wide's scalar fallback, which emulates either).
+pub const fn lanes() -> usize {
+    if cfg!(target_feature = "avx") { 8 } else { 4 }
+}

@@ -71,13 +71,27 @@ pub enum InFlight {
 }
 
 /// The packets a stream forms from coherent runs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Packets {
     /// None: every ray is a single ray (sorted, interleaved).
     Off,
     Four,
-    #[default]
     Eight,
+}
+
+impl Default for Packets {
+    /// As wide as this build's SIMD registers ([`crate::isa::lanes`]): eight lanes with AVX, four
+    /// otherwise, where `wide` makes an 8-wide packet of two 4-wide halves. On the portable x86-64
+    /// build (SSE2) the renderer's wavefronts ran 1.07× (default scene) and 1.11× (dragon scene)
+    /// faster with 4-wide packets than with 8-wide (docs/BENCHMARKS.md, "The renderer's rays as
+    /// streams").
+    fn default() -> Self {
+        if crate::isa::lanes() >= 8 {
+            Self::Eight
+        } else {
+            Self::Four
+        }
+    }
 }
 
 /// How a stream traces.
