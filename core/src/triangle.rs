@@ -58,7 +58,8 @@ impl Triangle {
         self.e1.cross(self.e2)
     }
 
-    /// True when the triangle has no area (coincident or collinear vertices); it is never hit.
+    /// True when the triangle is degenerate: `|e1 × e2|²` rounds to 0 (no area, or too little
+    /// for f32; see [`Triangle::min_det2`]). It is never hit.
     #[inline]
     pub fn is_degenerate(&self) -> bool {
         self.geometric_normal().length_squared() == 0.0
@@ -67,14 +68,38 @@ impl Triangle {
     /// The parallel threshold `PARALLEL_SIN²·|e1 × e2|²` that [`Triangle::intersect`] compares
     /// `det²` with, or `+inf` for a degenerate triangle, so that no ray passes it. The flat format
     /// stores it with each triangle; NaN for a NaN triangle, which no ray passes either.
+    ///
+    /// A triangle is *degenerate* when `|e1 × e2|²` rounds to 0 in f32: no area (coincident or
+    /// collinear vertices), or edges so short (about 1e-11 and below) that the squared area
+    /// underflows. Such a triangle is never hit, by any kernel in any mode: the watertight kernels
+    /// take this threshold too and reject `+inf`, and the builder leaves the triangle out of the
+    /// tree.
+    ///
+    /// Where `|e1 × e2|²` overflows f32 (edges beyond about 4e9), the threshold is computed from
+    /// the normal scaled by `PARALLEL_SIN` first (a power of two, so the scaling is exact) and
+    /// stays finite while `|e1 × e2| < 7.7e25`; `det²` may then overflow to `+inf`, which passes
+    /// the test, as it should for a ray that far from parallel. Past that the threshold is `+inf`
+    /// as well: [`Triangle::is_too_large`] tells the two apart, and the builder and the flat
+    /// format's validation refuse such a triangle rather than never hit it.
     #[inline]
     pub fn min_det2(&self) -> f32 {
-        let n2 = self.geometric_normal().length_squared();
+        let n = self.geometric_normal();
+        let n2 = n.length_squared();
         if n2 == 0.0 {
             f32::INFINITY
-        } else {
+        } else if n2.is_finite() {
             PARALLEL_SIN * PARALLEL_SIN * n2
+        } else {
+            (n * PARALLEL_SIN).length_squared()
         }
+    }
+
+    /// True when the triangle has area but its threshold [`Triangle::min_det2`] still overflows
+    /// (`|e1 × e2| ≥ 7.7e25`, or an edge or the normal is not finite): f32 cannot trace it right,
+    /// so it must be refused, not stored.
+    #[inline]
+    pub fn is_too_large(&self) -> bool {
+        !self.is_degenerate() && !(self.min_det2() < f32::INFINITY)
     }
 
     /// Möller–Trumbore: the hit `(t, α, β)` with `tmin < t < tmax`, `α ≥ 0`, `β ≥ 0`, `α + β ≤ 1`.

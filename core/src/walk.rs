@@ -345,10 +345,10 @@ impl Scene<'_> {
                 .intersect(ray)
                 .map(|t| (t, 0.0, 0.0));
         }
-        if C::WATERTIGHT {
-            return watertight::intersect_sheared(&self.vertices(prim), ray, shear);
-        }
         let (tri, min_det2) = self.prepared_triangle(prim);
+        if C::WATERTIGHT {
+            return watertight::intersect_sheared(&self.vertices(prim), min_det2, ray, shear);
+        }
         tri.intersect_prepared(ray, min_det2)
     }
 }

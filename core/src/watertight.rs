@@ -39,6 +39,7 @@
 //! written so that NaN fails it.
 
 use crate::ray::Ray;
+use crate::triangle::Triangle;
 use glam::Vec3;
 
 /// A ray's precomputed shear (paper §3.1–3.2): the permuted axes and `Sx, Sy, Sz`.
@@ -108,15 +109,33 @@ pub fn edge_functions_f64(p: [[f32; 2]; 3]) -> [f32; 3] {
 
 /// The watertight test of `ray` against the triangle with vertices `verts`: the hit `(t, u, v)`
 /// with `tmin < t < tmax` (`u`, `v` the barycentrics of `v1`, `v2`), or `None`. A ray in the
-/// triangle's plane, a degenerate triangle and NaN anywhere are a miss.
+/// triangle's plane, a degenerate triangle (no area: [`Triangle::min_det2`] is `+inf`) and NaN
+/// anywhere are a miss.
 #[inline]
 pub fn intersect(verts: &[Vec3; 3], ray: &Ray) -> Option<(f32, f32, f32)> {
-    intersect_sheared(verts, ray, &Shear::new(ray.dir))
+    let [v0, v1, v2] = *verts;
+    let min_det2 = Triangle::from_vertices(v0, v1, v2).min_det2();
+    intersect_sheared(verts, min_det2, ray, &Shear::new(ray.dir))
 }
 
-/// [`intersect`] with the ray's [`Shear`] already known (traversal computes it once per ray).
+/// [`intersect`] with the triangle's threshold [`Triangle::min_det2`] (the flat format stores it)
+/// and the ray's [`Shear`] (traversal computes it once per ray) already known.
+///
+/// The threshold is used only to tell a degenerate triangle: `+inf` (or NaN) is a miss for every
+/// ray. The watertight test alone would hit a zero-area triangle: its edge functions are exact
+/// only up to the shear's rounding, which can give a collinear triangle a sliver of area seen
+/// from the ray; Möller–Trumbore never hits one, and neither does this kernel, so the two modes
+/// and the builder (which leaves degenerate triangles out of the tree) agree.
 #[inline(always)]
-pub fn intersect_sheared(verts: &[Vec3; 3], ray: &Ray, shear: &Shear) -> Option<(f32, f32, f32)> {
+pub fn intersect_sheared(
+    verts: &[Vec3; 3],
+    min_det2: f32,
+    ray: &Ray,
+    shear: &Shear,
+) -> Option<(f32, f32, f32)> {
+    if !(min_det2 < f32::INFINITY) {
+        return None;
+    }
     let [kx, ky, kz] = shear.k;
     let [sx, sy, sz] = shear.s;
     let rel = verts.map(|v| v - ray.origin);

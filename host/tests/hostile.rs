@@ -309,7 +309,8 @@ fn every_subcommand_refuses_every_bad_input_class() {
 }
 
 /// `kdray rays` panicked (exit 101) framing a triangle with coordinates 1e19: now a refusal
-/// naming the input; 1e18 still frames.
+/// naming the input (the builder refuses it first: too large for f32 arithmetic, and so does it
+/// 1e18, which framed but was never hit in fast mode); 1e12 still frames.
 #[test]
 fn rays_refuses_a_scene_too_large_to_frame() {
     let d = dir("frame");
@@ -320,11 +321,19 @@ fn rays_refuses_a_scene_too_large_to_frame() {
     )
     .unwrap();
     let out = kdray(&["rays", s(&big), "-o", s(&d.join("r.bin")), "--size", "4x4"]);
-    assert_fails(&out, 1, "big.tri", "too large to frame");
+    assert_fails(&out, 1, "big.tri", "too large");
+    let big = d.join("big18.tri");
+    std::fs::write(
+        &big,
+        tri_bytes(&[[0.0, 0.0, 0.0, 1e18, 0.0, 0.0, 0.0, 1e18, 0.0]]),
+    )
+    .unwrap();
+    let out = kdray(&["rays", s(&big), "-o", s(&d.join("r.bin")), "--size", "4x4"]);
+    assert_fails(&out, 1, "big18.tri", "too large for f32");
     let ok = d.join("ok.tri");
     std::fs::write(
         &ok,
-        tri_bytes(&[[0.0, 0.0, 0.0, 1e18, 0.0, 0.0, 0.0, 1e18, 0.0]]),
+        tri_bytes(&[[0.0, 0.0, 0.0, 1e12, 0.0, 0.0, 0.0, 1e12, 0.0]]),
     )
     .unwrap();
     let out = kdray(&["rays", s(&ok), "-o", s(&d.join("r.bin")), "--size", "4x4"]);

@@ -152,6 +152,43 @@ fn vertices_whose_edges_overflow_are_refused() {
     assert_eq!(check(&w), Err(FormatError::NonFiniteGeometry));
 }
 
+/// A file of version 7 (which stored `+inf` as the threshold of a triangle whose `|e1 × e2|²`
+/// overflows f32, so fast mode never hit it) is refused with a message saying to rebuild it.
+#[test]
+fn version_7_asks_for_a_rebuild() {
+    let mut w = valid_words();
+    w[header::VERSION] = 7;
+    seal(&mut w);
+    let err = check(&w).unwrap_err();
+    assert_eq!(err, FormatError::UnsupportedVersion(7));
+    assert!(err.to_string().contains("rebuild the file"), "{err}");
+}
+
+/// A triangle with area whose threshold overflows even from the scaled normal (`|e1 × e2|` ≥
+/// 7.7e25: f32 cannot trace it right) is refused, although the stored `+inf` is the threshold its
+/// vertices give: `+inf` stands for "never hit", which is right only for a degenerate triangle.
+#[test]
+fn triangles_too_large_for_f32_are_refused() {
+    let mut w = valid_words();
+    let tris = w[header::TRIS_OFFSET] as usize;
+    let verts = [[0.0f32, 0.0, 0.0], [1.0e13, 0.0, 0.0], [0.0, 1.0e13, 0.0]];
+    for (k, v) in verts.iter().flatten().enumerate() {
+        w[tris + k] = v.to_bits();
+    }
+    let [a, b, c] = verts.map(Vec3::from);
+    let tri = kdray_core::Triangle::from_vertices(a, b, c);
+    assert!(tri.is_too_large() && tri.min_det2() == f32::INFINITY);
+    w[tris + 9] = tri.min_det2().to_bits();
+    seal(&mut w);
+    assert_eq!(check(&w), Err(FormatError::NonFiniteGeometry));
+    // The same triangle 100 times smaller has a finite threshold (its `|e1 × e2|²` overflows,
+    // the scaled one does not) and is a valid, hittable triangle as far as this check goes.
+    let small = kdray_core::Triangle::from_vertices(a * 1e-2, b * 1e-2, c * 1e-2);
+    assert!(!small.is_too_large());
+    assert!(small.geometric_normal().length_squared().is_infinite());
+    assert!(small.min_det2().is_finite() && small.min_det2() > 0.0);
+}
+
 /// A file of an older version (4: no checksum, reserved words from 24) is refused with a
 /// message saying to rebuild it, not as damaged.
 #[test]

@@ -302,24 +302,19 @@ fn rays_in_the_plane_never_hit() {
 }
 
 /// Degenerate triangles — a repeated vertex, or three exactly collinear points — have no area and
-/// are never hit by Möller–Trumbore, even by rays aimed exactly at the segment they collapse to,
-/// from any direction (`min_det2` is `+inf`).
+/// are never hit, by any kernel in either mode, even by rays aimed exactly at the segment they
+/// collapse to, from any direction: their threshold `min_det2` is `+inf`, which Möller–Trumbore's
+/// parallel test and the watertight kernels both reject.
 ///
-/// Watertight, a repeated vertex: never a hit. The two equal vertices shear to the same bits, so
-/// their edge function is `x·y − y·x = 0` exactly and the other two are negatives of each other
-/// (`Bx·Cy − By·Cx` against `Cx·By − Cy·Bx` with `A = B`): `det = 0`.
-///
-/// Watertight, three collinear points: a hit is possible and not a fault. The kernel has no
-/// area test; each vertex's sheared position is rounded on its own, so the three projected
-/// points are generally not collinear by a few ULPs, and a ray aimed at the segment then sees a
-/// sliver of one sign. What is derived: all three edge functions have one sign, so the kernel's
-/// `t = Σ Uᵢzᵢ / Σ Uᵢ` is a convex combination of the vertices' depths `zᵢ = A[kz] / d[kz]`
-/// (up to rounding): a hit lies between the nearest and the farthest vertex, along the segment
-/// the ray really crosses. Scenes never reach the kernel with such a triangle: the builder leaves
-/// degenerate triangles (`Triangle::is_degenerate`) out of the tree. Measured: 111, 162 and 129
-/// hits of 1,500 kernel runs on the three collinear triangles.
+/// Why the watertight kernels need that test: the watertight test alone would hit three collinear
+/// points. Each vertex's sheared position is rounded on its own, so the three projected points
+/// are generally not collinear by a few ULPs, and a ray aimed at the segment then sees a sliver
+/// of one sign (before the test: 111, 162 and 129 hits of 1,500 kernel runs on the three collinear
+/// triangles below). The builder leaves degenerate triangles out of the tree, so a walk could
+/// never find such a hit while a brute-force pass over the same kernels did: the two disagreed
+/// (the regression in `tests/tests/kdtree.rs`).
 #[test]
-fn degenerate_triangles_are_never_hit_unless_collinear_in_watertight() {
+fn degenerate_triangles_are_never_hit() {
     let mut rng = Lcg::new(33);
     let a = Vec3::new(0.25, -0.5, 1.0);
     let d = Vec3::new(1.0, 2.0, -0.5);
@@ -329,39 +324,66 @@ fn degenerate_triangles_are_never_hit_unless_collinear_in_watertight() {
         [a, a + d, a + 2.0 * d],
         [a + 2.0 * d, a, a + d],
         [Vec3::ZERO, Vec3::ONE, Vec3::splat(2.0)],
+        // The collinear triangle of the kdtree regression, and a ray that the watertight test
+        // alone hits.
+        [
+            Vec3::new(1.75, 1.25, 0.5),
+            Vec3::new(-0.25, 1.25, 0.5),
+            Vec3::new(0.25, 1.25, 0.5),
+        ],
     ];
-    let mut wt_hits = [0usize; 5];
-    for (i, v) in triangles.iter().enumerate() {
+    for v in &triangles {
         assert!(
             Triangle::from_vertices(v[0], v[1], v[2]).is_degenerate(),
             "{v:?}"
         );
-        let repeated = v[0] == v[1] || v[1] == v[2] || v[2] == v[0];
         for _ in 0..500 {
             let target = v[0] + (v[2] - v[0]) * rng.next_f32() + (v[1] - v[0]) * rng.next_f32();
             let origin = target + random_unit(&mut rng) * 3.0;
             let ray = Ray::new(origin, (target - origin).normalize());
-            // The vertices' depths along the ray's major axis (the kernel's `z`), and the
-            // rounding of the kernel's convex combination of them.
-            let kz = watertight::major_axis(ray.dir);
-            let z = v.map(|p| f64::from((p - ray.origin)[kz]) / f64::from(ray.dir[kz]));
-            let (zmin, zmax) = (z[0].min(z[1]).min(z[2]), z[0].max(z[1]).max(z[2]));
-            let slack = 64.0 * U * zmax.abs().max(zmin.abs());
-            each_kernel(v, &ray, |family, name, got| {
-                if family == Family::Mt || repeated {
-                    assert_eq!(got, None, "{name}: degenerate {v:?} hit by {ray:?}");
-                } else if let Some((t, _, _)) = got {
-                    wt_hits[i] += 1;
-                    let t = f64::from(t);
-                    assert!(
-                        zmin - slack <= t && t <= zmax + slack,
-                        "{name}: {v:?} hit at {t}, outside [{zmin}, {zmax}]"
-                    );
-                }
+            each_kernel(v, &ray, |_, name, got| {
+                assert_eq!(got, None, "{name}: degenerate {v:?} hit by {ray:?}");
             });
         }
     }
-    eprintln!("degenerate, watertight: hits of 1500 (3 kernels) per triangle {wt_hits:?}");
+}
+
+/// Huge triangles: where `|e1 × e2|²` overflows f32 (edges beyond about 4e9), the threshold is
+/// computed from the normal scaled by `PARALLEL_SIN` (exact: a power of two), so it stays finite,
+/// and every kernel, fast and watertight, scalar and packet, hits them. Before, the threshold was
+/// `+inf` and Möller–Trumbore never hit such a triangle while the watertight kernel did. Sizes
+/// 4e9 (the issue's triangle) to 1e12; rays straight down and tilted, from near and far.
+#[test]
+fn huge_triangles_are_hit_by_every_kernel() {
+    let mut rng = Lcg::new(36);
+    for scale in [4.0e9f32, 1.0e10, 1.0e11, 1.0e12] {
+        let v = [
+            Vec3::new(-scale, -scale, 0.0),
+            Vec3::new(scale, -scale, 0.0),
+            Vec3::new(0.0, scale, 0.0),
+        ];
+        let tri = Triangle::from_vertices(v[0], v[1], v[2]);
+        assert!(tri.geometric_normal().length_squared().is_infinite());
+        assert!(tri.min_det2().is_finite() && !tri.is_too_large(), "{scale}");
+        for k in 0..40 {
+            let height = if k % 2 == 0 { 1.0 } else { scale };
+            let (a, b) = (0.1 + 0.3 * rng.next_f32(), 0.1 + 0.3 * rng.next_f32());
+            let target = v[0] + (v[1] - v[0]) * a + (v[2] - v[0]) * b;
+            let tilt = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 0.0);
+            let dir = if k < 4 {
+                Vec3::NEG_Z
+            } else {
+                (tilt - Vec3::Z).normalize()
+            };
+            let ray = Ray::new(target - dir * height, dir);
+            let t64 = f64ref::mt_hit(&ray, &v).expect("the f64 reference hits");
+            each_kernel(&v, &ray, |_, name, got| {
+                let (t, _, _) = got.unwrap_or_else(|| panic!("{name}: missed {v:?} by {ray:?}"));
+                let rel = (f64::from(t) - t64).abs() / t64;
+                assert!(rel < 1e-5, "{name}: t {t} against {t64} ({scale})");
+            });
+        }
+    }
 }
 
 /// Needle triangles, length 1 and width 10⁻¹ … 10⁻⁵ (condition `c` up to ~10⁵), arbitrarily
@@ -444,19 +466,23 @@ fn needle_triangles_are_hit_inside() {
 /// known limit of the squared threshold stored in the flat format (lifting it means storing
 /// `PARALLEL_SIN·|e1 × e2|` instead: a format change), reported here rather than fixed.
 ///
-/// Watertight: not that limit (it has no area threshold), but its own, later one. Its edge
-/// functions are ~`s²` and `T = Σ Uᵢzᵢ` ~`10·s³`, all in f32. Expected: a hit with `t` within the
-/// bound while every intermediate value is a normal f32, which the bound checks and which holds
-/// for every ray down to `s = 10⁻¹²` (`T` ~ 10⁻³⁵); a miss once every `|Uᵢzᵢ|` the kernel can
-/// form is below half the smallest subnormal, 2⁻¹⁵⁰ ≈ 7·10⁻⁴⁶, so that `T` rounds to 0 and
-/// `t = 0` fails `t > tmin`: every ray from `s = 10⁻¹⁶` on (`T` ~ 10⁻⁴⁷). In between, hit or
-/// miss. Measured: every ray hits down to `s = 10⁻¹⁵` (with subnormal `T`, so `t` is coarse);
-/// worst `|Δt|` 0.16 of the bound where it applies.
+/// Watertight: the same rule for degenerate triangles (a triangle whose `|e1 × e2|²` underflows
+/// is never hit, in either mode: `degenerate_triangles_are_never_hit`), so the same miss from
+/// `s ≈ 10⁻¹¹` on. Above it, its own limits: its edge functions are ~`s²` and `T = Σ Uᵢzᵢ`
+/// ~`10·s³`, all in f32; a hit with `t` within the bound while every intermediate value is a
+/// normal f32, which the bound checks and which holds for every ray that is not degenerate (the
+/// bound alone would reach `s = 10⁻¹²`, `T` ~ 10⁻³⁵; without the degeneracy rule the kernel hit
+/// down to `s = 10⁻¹⁵` with a subnormal `T`). Measured: worst `|Δt|` 0.16 of the bound.
 #[test]
 fn tiny_triangles_are_hit_until_f32_underflows() {
     let mut rng = Lcg::new(35);
-    let (mut wt_worst, mut wt_sure, mut wt_under, mut wt_hits) =
-        (0.0f64, [0usize; 18], [0usize; 18], [0usize; 18]);
+    let (mut wt_worst, mut wt_sure, mut wt_under, mut wt_hits, mut wt_degenerate) = (
+        0.0f64,
+        [0usize; 18],
+        [0usize; 18],
+        [0usize; 18],
+        [0usize; 18],
+    );
     for k in 3..=20 {
         let s = 10f32.powi(-k);
         let dist = 2f32.powi((10.0 * s).log2().ceil() as i32);
@@ -481,10 +507,13 @@ fn tiny_triangles_are_hit_until_f32_underflows() {
             let degenerate = Triangle::from_vertices(v[0], v[1], v[2]).is_degenerate();
             let e = wt_bound::expect(&v, &ray);
             let row = k as usize - 3;
-            wt_sure[row] += usize::from(e.must_hit && e.normal);
+            wt_sure[row] += usize::from(e.must_hit && e.normal && !degenerate);
             wt_under[row] += usize::from(e.must_miss_underflow);
+            wt_degenerate[row] += usize::from(degenerate);
             each_kernel(&v, &ray, |family, name, got| {
-                if family == Family::Wt {
+                if degenerate {
+                    assert_eq!(got, None, "{name}: degenerate size {s} hit");
+                } else if family == Family::Wt {
                     if let Some(r) = check_wt(name, &e, &ray, got) {
                         wt_worst = wt_worst.max(r);
                     }
@@ -501,14 +530,16 @@ fn tiny_triangles_are_hit_until_f32_underflows() {
         }
     }
     assert_eq!(
-        wt_sure[..10],
-        [20; 10],
-        "the bound covers sizes down to 10⁻¹²"
+        wt_sure[..8],
+        [20; 8],
+        "the bound covers sizes down to 10⁻¹⁰"
     );
+    assert_eq!(wt_degenerate[..8], [0; 8], "not degenerate down to 10⁻¹⁰");
+    assert_eq!(wt_degenerate[9..], [20; 9], "degenerate from 10⁻¹² on");
     assert_eq!(wt_under[13..], [20; 5], "T underflows from 10⁻¹⁶ on");
     eprintln!(
         "tiny, watertight: per size 10⁻³…10⁻²⁰ of 20 rays, bound says hit {wt_sure:?}, \
-         T must underflow {wt_under:?}, hits (3 kernels) {wt_hits:?}; worst |Δt| = {wt_worst:.3} \
-         of the bound"
+         T must underflow {wt_under:?}, degenerate {wt_degenerate:?}, hits (3 kernels) \
+         {wt_hits:?}; worst |Δt| = {wt_worst:.3} of the bound"
     );
 }

@@ -28,8 +28,9 @@ pub enum FormatError {
     SectionsOverlap,
     /// The scene bounds are not finite or min > max.
     BadBounds,
-    /// A triangle, sphere, normal or texture coordinate is NaN or infinite, a radius ≤ 0, or a
-    /// triangle's stored threshold is not the one its vertices give.
+    /// A triangle, sphere, normal or texture coordinate is NaN or infinite, a radius ≤ 0, a
+    /// triangle's stored threshold is not the one its vertices give, or a triangle is too large
+    /// for f32 ([`Triangle::is_too_large`](crate::Triangle::is_too_large)).
     NonFiniteGeometry,
     /// A hittable triangle (finite threshold) or a sphere reaches outside the header's bounds.
     OutsideBounds {
@@ -104,7 +105,11 @@ impl core::fmt::Display for FormatError {
             Self::SectionsOverlap => write!(f, "two sections overlap"),
             Self::BadBounds => write!(f, "scene bounds are not finite"),
             Self::NonFiniteGeometry => {
-                write!(f, "geometry has NaN/infinite values or a radius <= 0")
+                write!(
+                    f,
+                    "geometry has NaN/infinite values, a radius <= 0, a triangle too large for \
+                     f32 or a wrong stored threshold"
+                )
             }
             Self::BadDepth => write!(f, "tree depth is zero-sized, above {MAX_DEPTH} or wrong"),
             Self::OutsideBounds { prim } => {

@@ -4,8 +4,10 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         7 (6 had no blocks section, 5 stored edges, not vertices, 4 had no
-//!                     checksum: files written before are refused, rebuild them)
+//!  1  VERSION         8 (7 stored `+inf` as the threshold of a triangle whose `|e1 × e2|²`
+//!                     overflows f32, so fast mode never hit it; 6 had no blocks section, 5 stored
+//!                     edges, not vertices, 4 had no checksum: files written before are refused,
+//!                     rebuild them)
 //!  2  CONTENTS        bit set, see `contents::*`: which sections are present
 //!  3  TOTAL_WORDS     length of the whole array in words (catches truncation and trailing data)
 //!  4  NODE_COUNT      kd-tree nodes (≥ 1; 2 words each)
@@ -37,14 +39,16 @@
 //!   ([`Node`]).
 //! - **Indices**: `u32` primitive ids, referenced by leaves with more than one primitive.
 //! - **Triangles**: 10 f32 each, the vertices `v0, v1, v2` exactly as the input gave them, then
-//!   the triangle's parallel threshold [`Triangle::min_det2`] (`+inf` for a degenerate triangle),
-//!   so the kernels need not recompute `|e1 × e2|²` per test. Möller–Trumbore's edges
+//!   the triangle's parallel threshold [`Triangle::min_det2`] (`+inf` for a degenerate triangle,
+//!   which no kernel hits, in either mode; finite, from the scaled normal, where `|e1 × e2|²`
+//!   overflows, since version 8), so the kernels need not recompute `|e1 × e2|²` per test. Möller–Trumbore's edges
 //!   `e1 = v1 − v0`, `e2 = v2 − v0` are computed at load ([`Scene::prepared_triangle`]) with the
 //!   same f32 subtractions the builder's [`Triangle::from_vertices`] makes, so its results are bit
 //!   for bit those of version 5, which stored the edges. Version 6 stores the vertices because the
 //!   watertight kernel ([`crate::watertight`]) needs two triangles sharing an edge to see
 //!   bit-identical vertices: `v0 + e1` is not `v1` in f32. Validation requires the vertices and
-//!   both edges finite, and recomputes the threshold and requires the stored bits.
+//!   both edges finite, recomputes the threshold and requires the stored bits, and refuses a
+//!   triangle with area whose threshold still overflows ([`Triangle::is_too_large`]).
 //! - **Spheres**: 4 f32 each, centre and radius (> 0).
 //! - **Normals**: 9 f32 per triangle, the normals at `v0, v1, v2`.
 //! - **UVs**: 6 f32 per triangle, the texture coordinates at `v0, v1, v2`.
@@ -96,7 +100,7 @@ use glam::Vec3;
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 7;
+pub const VERSION: u32 = 8;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).

@@ -198,6 +198,7 @@ impl<'a> Scene<'a> {
                 && tri.e1.is_finite()
                 && tri.e2.is_finite()
                 && tri.min_det2().to_bits() == t[9].to_bits()
+                && !tri.is_too_large()
         });
         if !(triangles_ok && finite(scene.spheres) && finite(scene.normals) && finite(scene.uvs))
             || scene

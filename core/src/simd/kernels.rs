@@ -29,7 +29,7 @@ pub struct PrimHits<L> {
 impl<L: Lanes> PrimHits<L> {
     /// No lane hit.
     #[inline]
-    fn none() -> Self {
+    pub(crate) fn none() -> Self {
         let zero = L::splat(0.0);
         Self {
             mask: zero,

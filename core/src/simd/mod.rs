@@ -36,7 +36,9 @@ pub mod watertight;
 pub use kernels::{PrimHits, intersect_sphere, intersect_triangle, record_closest};
 pub use lanes::{Lanes, Vec3x};
 pub use packet::{HitPacket, RayPacket};
-pub use watertight::{ShearX, intersect_triangle_watertight};
+pub use watertight::{
+    ShearX, intersect_triangle_watertight, intersect_triangle_watertight_prepared,
+};
 pub use wide::{f32x4, f32x8};
 
 /// A 4-wide ray packet.

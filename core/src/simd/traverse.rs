@@ -17,7 +17,7 @@
 use super::kernels::{PrimHits, intersect_sphere, intersect_triangle_prepared, record_closest};
 use super::lanes::Lanes;
 use super::packet::{HitPacket, RayPacket};
-use super::watertight::{ShearX, intersect_triangle_watertight};
+use super::watertight::{ShearX, intersect_triangle_watertight_prepared};
 use crate::format::{MAX_DEPTH, Scene};
 use crate::traverse::{Contents, ENTRY_SLACK, GAMMA3, Mode, TINY, WIDEN, by_contents};
 use glam::Vec3;
@@ -96,10 +96,15 @@ impl Scene<'_> {
         if C::SPHERES && (!C::TRIANGLES || prim >= n_tris) {
             return intersect_sphere(&self.sphere(prim - n_tris), rays);
         }
-        if let (true, Some(shear)) = (C::WATERTIGHT, shear) {
-            return intersect_triangle_watertight(&self.vertices(prim), rays, shear);
-        }
         let (tri, min_det2) = self.prepared_triangle(prim);
+        if let (true, Some(shear)) = (C::WATERTIGHT, shear) {
+            return intersect_triangle_watertight_prepared(
+                &self.vertices(prim),
+                min_det2,
+                rays,
+                shear,
+            );
+        }
         intersect_triangle_prepared(&tri, min_det2, rays)
     }
 

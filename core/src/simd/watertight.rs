@@ -12,6 +12,7 @@
 use super::kernels::PrimHits;
 use super::lanes::{Lanes, set_lanes};
 use super::packet::RayPacket;
+use crate::triangle::Triangle;
 use crate::watertight::edge_functions_f64;
 use glam::Vec3;
 
@@ -68,14 +69,33 @@ impl<L: Lanes> ShearX<L> {
 }
 
 /// The watertight test of the triangle with vertices `verts` against every lane of `rays`: the
-/// lanes where [`crate::watertight::intersect_sheared`] hits the lane's ray (with its current
-/// `tmax`), and there `t`, `u`, `v`. `shear` is [`ShearX::new`] of `rays`.
-#[inline(always)]
+/// lanes where [`crate::watertight::intersect`] hits the lane's ray (with its current `tmax`),
+/// and there `t`, `u`, `v`. `shear` is [`ShearX::new`] of `rays`. A degenerate triangle
+/// ([`Triangle::min_det2`] is `+inf`) is hit by no lane.
+#[inline]
 pub fn intersect_triangle_watertight<L: Lanes>(
     verts: &[Vec3; 3],
     rays: &RayPacket<L>,
     shear: &ShearX<L>,
 ) -> PrimHits<L> {
+    let [v0, v1, v2] = *verts;
+    let min_det2 = Triangle::from_vertices(v0, v1, v2).min_det2();
+    intersect_triangle_watertight_prepared(verts, min_det2, rays, shear)
+}
+
+/// [`intersect_triangle_watertight`] with the triangle's threshold [`Triangle::min_det2`] already
+/// known (the flat format stores it): lane by lane [`crate::watertight::intersect_sheared`].
+#[inline(always)]
+pub fn intersect_triangle_watertight_prepared<L: Lanes>(
+    verts: &[Vec3; 3],
+    min_det2: f32,
+    rays: &RayPacket<L>,
+    shear: &ShearX<L>,
+) -> PrimHits<L> {
+    // A degenerate (+inf) or NaN threshold: no lane hits (see `intersect_sheared`).
+    if !(min_det2 < f32::INFINITY) {
+        return PrimHits::none();
+    }
     let [sx, sy, sz] = shear.s;
     let rel = verts.map(|v| shear.relative(v));
     let sheared = rel.map(|a| [a[0] - sx * a[2], a[1] - sy * a[2]]);

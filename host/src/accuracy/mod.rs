@@ -17,7 +17,8 @@ use crate::f64ref;
 use core::hint::black_box;
 use glam::Vec3;
 use kdray_core::simd::{
-    HitPacket, Lanes, RayPacket, ShearX, f32x4, f32x8, intersect_triangle_watertight, kernels,
+    HitPacket, Lanes, RayPacket, ShearX, f32x4, f32x8, intersect_triangle_watertight_prepared,
+    kernels,
 };
 use kdray_core::watertight::{self, Shear};
 use kdray_core::{Sphere, Triangle};
@@ -178,8 +179,10 @@ impl<'a> Prepared<'a> {
                 for (c, case) in cases {
                     for (lane, ray) in case.rays.iter().enumerate() {
                         let (mut ray, shear) = (*ray, Shear::new(ray.dir));
-                        for v in &self.set.tris[case.tris.clone()] {
-                            if let Some((t, _, _)) = watertight::intersect_sheared(v, &ray, &shear)
+                        let tris = &self.set.tris[case.tris.clone()];
+                        for (v, (_, min_det2)) in tris.iter().zip(&self.mt[case.tris.clone()]) {
+                            if let Some((t, _, _)) =
+                                watertight::intersect_sheared(v, *min_det2, &ray, &shear)
                             {
                                 ray.tmax = t;
                             }
@@ -191,14 +194,22 @@ impl<'a> Prepared<'a> {
             Variant::Wt4 => {
                 for (c, case) in cases {
                     for (half, packet) in self.packets4[c].iter().enumerate() {
-                        let t = wt_packet(packet, &self.set.tris[case.tris.clone()]);
+                        let t = wt_packet(
+                            packet,
+                            &self.set.tris[case.tris.clone()],
+                            &self.mt[case.tris.clone()],
+                        );
                         store(&mut out[c * LANES + 4 * half..][..4], t);
                     }
                 }
             }
             Variant::Wt8 => {
                 for (c, case) in cases {
-                    let t = wt_packet(&self.packets8[c], &self.set.tris[case.tris.clone()]);
+                    let t = wt_packet(
+                        &self.packets8[c],
+                        &self.set.tris[case.tris.clone()],
+                        &self.mt[case.tris.clone()],
+                    );
                     store(&mut out[c * LANES..][..LANES], t);
                 }
             }
@@ -268,13 +279,19 @@ fn mt_packet<L: Lanes>(packet: &RayPacket<L>, tris: &[(Triangle, f32)]) -> L {
 }
 
 /// Closest hit of a packet over `tris` by the watertight kernel: each lane's `t` (`+inf` where it
-/// missed). The shear is per packet, as traversal computes it once per packet.
+/// missed). The shear is per packet, as traversal computes it once per packet; the thresholds
+/// (`prepared`, the same triangles' [`Triangle::min_det2`]) are known, as the flat format stores
+/// them.
 #[inline]
-fn wt_packet<L: Lanes>(packet: &RayPacket<L>, tris: &[[Vec3; 3]]) -> L {
+fn wt_packet<L: Lanes>(
+    packet: &RayPacket<L>,
+    tris: &[[Vec3; 3]],
+    prepared: &[(Triangle, f32)],
+) -> L {
     let (mut rays, mut hits) = (*packet, HitPacket::<L>::miss());
     let shear = ShearX::new(packet);
-    for (k, verts) in tris.iter().enumerate() {
-        let found = intersect_triangle_watertight(verts, &rays, &shear);
+    for (k, (verts, (_, min_det2))) in tris.iter().zip(prepared).enumerate() {
+        let found = intersect_triangle_watertight_prepared(verts, *min_det2, &rays, &shear);
         kernels::record_closest(&mut hits, &mut rays, &found, k as u32);
     }
     hits.t

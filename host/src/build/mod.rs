@@ -16,6 +16,7 @@ use clip::Aabb;
 use core::sync::atomic::{AtomicU64, Ordering};
 use events::{Costs, Event, Split};
 use glam::Vec3;
+use kdray_core::Triangle;
 
 /// Builder parameters. The defaults are pbrt-v3's, except where measurement chose otherwise
 /// (see `docs/BUILD.md`).
@@ -161,11 +162,13 @@ impl Ctx<'_> {
 /// Units of [`build`]'s progress counter that make up the whole build.
 pub const PROGRESS_TOTAL: u64 = 1 << 32;
 
-/// Builds the tree over `geom`'s triangles and spheres. Degenerate (zero-area) triangles are left
-/// out of the tree: no ray can hit them. `progress`, when given, grows to [`PROGRESS_TOTAL`].
+/// Builds the tree over `geom`'s triangles and spheres. Degenerate triangles (no area in f32:
+/// [`Triangle::min_det2`] is `+inf`) are left out of the tree: no kernel hits them.
+/// `progress`, when given, grows to [`PROGRESS_TOTAL`].
 ///
 /// # Errors
-/// Non-finite coordinates or radii, which loaders reject before this point.
+/// Non-finite coordinates or radii, which loaders reject before this point, and triangles too
+/// large for the kernels' f32 arithmetic ([`Triangle::is_too_large`]).
 pub fn build(
     geom: &Geometry,
     params: &BuildParams,
@@ -187,13 +190,26 @@ pub fn build(
             "sphere {i} has a non-finite centre or a radius that is not > 0"
         ));
     }
+    let kernel_tri = |t: &[Vec3; 3]| Triangle::from_vertices(t[0], t[1], t[2]);
+    if let Some(i) = geom
+        .triangles
+        .iter()
+        .position(|t| kernel_tri(t).is_too_large())
+    {
+        return Err(format!(
+            "triangle {i} is too large for f32 arithmetic: its edges' cross product reaches \
+             7.7e25 (edges beyond about 8e12); scale the scene down"
+        ));
+    }
     let prims = Prims {
         tris: &geom.triangles,
         spheres: &geom.spheres,
     };
+    // Degenerate triangles (no finite threshold: `Triangle::min_det2`) are never hit by any
+    // kernel, so they stay out of the tree.
     let live: Vec<u32> = (0..geom.prim_count() as u32)
         .filter(|&id| match geom.triangles.get(id as usize) {
-            Some(t) => (t[1] - t[0]).cross(t[2] - t[0]) != Vec3::ZERO,
+            Some(t) => kernel_tri(t).min_det2() < f32::INFINITY,
             None => true,
         })
         .collect();
