@@ -279,7 +279,7 @@ mod never_panic {
     use proptest::prelude::*;
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(300))]
+        #![proptest_config(ProptestConfig::with_cases(scaled_cases(300)))]
 
         #[test]
         fn random_bytes(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
@@ -428,4 +428,16 @@ fn render_watertight_key() {
         &format!("{CAMERA}[render]\nwatertight = 1\n{sphere}"),
         Some(6),
     );
+}
+
+/// `n` times `KDRAY_PROPTEST_SCALE` (default 1), as `kdray_tests::cases` does for the other
+/// suites (this crate cannot depend on `kdray-tests`, which depends on it).
+fn scaled_cases(n: u32) -> u32 {
+    std::env::var("KDRAY_PROPTEST_SCALE").map_or(n, |v| {
+        let k: u32 = v
+            .trim()
+            .parse()
+            .expect("KDRAY_PROPTEST_SCALE: a positive whole number");
+        n.saturating_mul(k.max(1))
+    })
 }

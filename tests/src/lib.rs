@@ -64,3 +64,20 @@ impl Lcg {
         (self.next_u64() >> 40) as f32 * (1.0 / 16_777_216.0)
     }
 }
+
+/// A property test's case count: `n` times `KDRAY_PROPTEST_SCALE` (a whole number, default 1),
+/// so that every suite can be run once with many more cases than CI's
+/// (`KDRAY_PROPTEST_SCALE=20 cargo test --workspace`) without editing the tests.
+///
+/// # Panics
+/// When `KDRAY_PROPTEST_SCALE` is set but not a positive whole number: a typo must not quietly
+/// run the usual count.
+pub fn cases(n: u32) -> u32 {
+    match std::env::var("KDRAY_PROPTEST_SCALE") {
+        Err(_) => n,
+        Ok(v) => match v.trim().parse::<u32>() {
+            Ok(k) if k > 0 => n.saturating_mul(k),
+            _ => panic!("KDRAY_PROPTEST_SCALE={v:?} is not a positive whole number"),
+        },
+    }
+}

@@ -33,7 +33,7 @@ fn bits(h: &Hit) -> [u32; 4] {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(96))]
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(96)))]
 
     #[test]
     fn blocked_walk_returns_the_node_walks_hits(

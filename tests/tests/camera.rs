@@ -186,7 +186,7 @@ fn top_row_is_up() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(1000))]
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(1000)))]
 
     /// `spherical_dir` is equation (3): unit, and equal to the f64 formula (to the rounding of a
     /// degree-to-radian conversion of angles up to 360°: ~4e-7).

@@ -444,7 +444,7 @@ fn a_tree_deeper_than_the_stack_is_rejected() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: kdray_tests::cases(2000), ..ProptestConfig::default() })]
 
     /// Arbitrary words never panic (and mostly fail the magic test) ...
     #[test]

@@ -81,7 +81,7 @@ fn check_walk<C: Contents>(
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 400, max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: kdray_tests::cases(400), max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
 
     #[test]
     fn traversal_equals_brute_force(

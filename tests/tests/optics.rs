@@ -17,7 +17,7 @@ fn snell(r: Vec3, n: Vec3, eta1: f32, eta2: f32) -> (f64, f64) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(1000))]
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(1000)))]
 
     /// Away from the critical angle (`|sin²θ2 − 1| > 1e-5`): `None` exactly under total internal
     /// reflection; otherwise a unit vector, on the far side of the surface, in the plane of

@@ -12,7 +12,7 @@ use proptest::prelude::*;
 macro_rules! packet_matches_scalar {
     ($name:ident, $lanes:ty, $w:expr, $mode:expr, $contents:ty) => {
         proptest! {
-            #![proptest_config(ProptestConfig { cases: 300, max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
+            #![proptest_config(ProptestConfig { cases: kdray_tests::cases(300), max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
             #[test]
             fn $name(geom in grid_geometry(4), isect in prop_oneof![Just(80.0), Just(4.0)], packets in prop::collection::vec(rays(), 1..12)) {
                 let words = scene_words(&geom, isect);

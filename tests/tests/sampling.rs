@@ -63,7 +63,7 @@ fn check_onb(n: Vec3) -> Result<(), TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(1000))]
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(1000)))]
 
     /// Both samplers give unit vectors in the upper hemisphere (z ≥ 0) of their local frame.
     #[test]

@@ -764,7 +764,7 @@ macro_rules! lane_tests {
             }
 
             proptest! {
-                #![proptest_config(ProptestConfig::with_cases(2000))]
+                #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(2000)))]
 
                 #[test]
                 fn triangle_any_bits_matches_scalar(

@@ -49,7 +49,7 @@ fn sphere_and_ray() -> impl Strategy<Value = (Sphere, Ray)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(1000))]
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(1000)))]
 
     /// Both roots agree with the f64 reference when the line crosses the sphere at least 0.1 R
     /// from grazing (half chord `h ≥ 0.1 R`).

@@ -44,7 +44,7 @@ fn bits(h: &Hit) -> (u32, u32, u32, u32) {
 macro_rules! stream_matches_scalar {
     ($name:ident, $mode:expr, $contents:ty) => {
         proptest! {
-            #![proptest_config(ProptestConfig { cases: 200, max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
+            #![proptest_config(ProptestConfig { cases: kdray_tests::cases(200), max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
             #[test]
             fn $name(geom in grid_geometry(4), isect in prop_oneof![Just(80.0), Just(4.0)], rays in stream_rays(), coherence in rules()) {
                 let words = scene_words(&geom, isect);

@@ -43,7 +43,7 @@ fn well_conditioned_hit() -> impl Strategy<Value = (Triangle, Ray)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(1000))]
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(1000)))]
 
     /// t, α, β agree with f64 Cramer's rule to a normwise relative bound.
     ///
