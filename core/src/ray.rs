@@ -44,6 +44,13 @@ impl Ray {
 
     /// True when every component is finite and the interval is not NaN: the only rays traversal
     /// can give a meaningful answer for. Anything else is reported as a miss.
+    ///
+    /// An infinite bound is traced as it says: `tmin = −∞` asks for the whole line behind the
+    /// origin too (the walk starts where the line enters the scene box, and the closest hit may
+    /// lie behind the origin), and an empty interval (`tmin ≥ tmax`) is a miss. Callers that
+    /// read rays from a file should refuse these rather than trace them: the host's rays files
+    /// accept only finite origins, directions and `tmin`, and `tmin ≤ tmax`
+    /// (`kdray::rays::check_rays`).
     #[inline]
     pub fn is_finite(&self) -> bool {
         self.origin.is_finite()

@@ -11,6 +11,13 @@
 //! q    = −b − sign(b)·sqrt(disc)  (no cancellation: both terms have the same sign)
 //! t0   = cq / q,  t1 = q          with cq = |f|² − R²  (Vieta: t0·t1 = cq)
 //! ```
+//!
+//! **Far from the origin.** `|f|²` overflows f32 once `|f|` passes about 1.8·10¹⁹: `cq` became
+//! `+inf`, `t0 = +inf`, and the far root `q` was reported as the near one (a sphere's far side,
+//! issue 20). So when any of `|o|`, `|c|`, `R` exceeds [`FAR`] (2⁶⁰), everything is first
+//! multiplied by [`FAR_SCALE`] (2⁻⁶⁸, exact: a power of two), which brings every square below
+//! 2¹²⁴, and the roots are multiplied back. Below 2⁶⁰ the scale is 1 and the results are bit for
+//! bit those of the plain form. Differs from Haines et al., whose form assumes `|f|²` finite.
 
 use crate::math;
 use crate::ray::Ray;
@@ -23,14 +30,36 @@ pub struct Sphere {
     pub radius: f32,
 }
 
+/// Above this magnitude of `o`, `c` or `R` the roots are computed scaled by [`FAR_SCALE`]: below
+/// it every `|f_i| ≤ 2⁶¹`, so `|f|²`, `|f − b·d|²` and `R²` stay below 2¹²⁴ (f32's largest is
+/// about 2¹²⁸).
+pub const FAR: f32 = (1u64 << 60) as f32;
+/// 2⁻⁶⁸: scales the largest finite f32 (below 2¹²⁸) under 2⁶⁰. Values smaller than the largest
+/// by more than 2⁸¹ may then lose bits to subnormals: far below what that largest value's ulp
+/// (2⁻²⁴ of it) can resolve anyway.
+pub const FAR_SCALE: f32 = 1.0 / (1u128 << 68) as f32;
+
 impl Sphere {
     /// The two roots `(t_near, t_far)` of the ray's line with the sphere, or `None` when the line
-    /// misses it (or any input is NaN). Assumes a normalized direction.
+    /// misses it (or any input is NaN). Assumes a normalized direction. Right for any finite
+    /// origin, centre and radius (see "Far from the origin" in the [module doc](self)); a root
+    /// beyond f32's range is `±inf`.
     #[inline]
     pub fn roots(&self, ray: &Ray) -> Option<(f32, f32)> {
-        let f = ray.origin - self.center;
+        let big = ray
+            .origin
+            .abs()
+            .max_element()
+            .max(self.center.abs().max_element());
+        let (k, unscale) = if big.max(self.radius) > FAR {
+            (FAR_SCALE, 1.0 / FAR_SCALE)
+        } else {
+            (1.0, 1.0)
+        };
+        let f = ray.origin * k - self.center * k;
         let b = f.dot(ray.dir);
-        let r2 = self.radius * self.radius;
+        let radius = self.radius * k;
+        let r2 = radius * radius;
         let perp = f - b * ray.dir;
         let disc = r2 - perp.dot(perp);
         if !(disc >= 0.0) {
@@ -41,7 +70,7 @@ impl Sphere {
         // q = 0 only when the origin is the tangent point itself (b = 0 and disc = 0).
         let t0 = if q != 0.0 { cq / q } else { 0.0 };
         let (near, far) = if t0 <= q { (t0, q) } else { (q, t0) };
-        Some((near, far))
+        Some((near * unscale, far * unscale))
     }
 
     /// The closest root in `tmin < t < tmax`: the near root, else the far one (origin inside).

@@ -26,8 +26,8 @@ pub const DIR_LENGTH_TOLERANCE: f32 = 1e-3;
 /// Decodes a rays file.
 ///
 /// # Errors
-/// A length that is not a whole number of records. Non-finite values are kept: traversal reports
-/// such rays as misses (see [`check_normalized`] for finite ones).
+/// A length that is not a whole number of records. The values are not checked here: see
+/// [`check_rays`].
 pub fn decode_rays(path: &Path, bytes: &[u8]) -> Result<Vec<Ray>> {
     if !bytes.len().is_multiple_of(RAY_BYTES) {
         return Err(Error::new(
@@ -59,30 +59,56 @@ pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
     decode_rays(path, &bytes)
 }
 
-/// Refuses the first ray whose eight values are all finite but whose direction's length is not
-/// within [`DIR_LENGTH_TOLERANCE`] of 1. Rays with a NaN or infinite value pass: they are misses
-/// by the core's rule.
+/// What is wrong with one ray of a rays file, if anything: the origin, the direction and `tmin`
+/// must be finite, `tmax` finite or `+inf` and not below `tmin` (`tmin = tmax` is an empty
+/// interval: a miss), the direction normalized within [`DIR_LENGTH_TOLERANCE`].
+///
+/// The core would not fail on the others, but would answer a question the file's writer did not
+/// mean to ask: it reports a ray with a NaN or infinite origin or direction as a miss
+/// ([`Ray::is_finite`]), traces `tmin = −inf` as the whole line behind the origin, and a
+/// `tmin > tmax` as an empty interval; each is refused instead of being written out as a result.
+pub fn ray_problem(r: &Ray) -> Option<String> {
+    if !(r.origin.is_finite() && r.dir.is_finite()) {
+        return Some(format!(
+            "origin {} or direction {} is not finite",
+            r.origin, r.dir
+        ));
+    }
+    if !r.tmin.is_finite() || r.tmax.is_nan() || r.tmax == f32::NEG_INFINITY {
+        return Some(format!(
+            "interval ({}, {}): tmin must be finite, tmax finite or +inf",
+            r.tmin, r.tmax
+        ));
+    }
+    if r.tmin > r.tmax {
+        return Some(format!(
+            "interval ({}, {}): tmin is above tmax",
+            r.tmin, r.tmax
+        ));
+    }
+    let length = r.dir.as_dvec3().length();
+    if (length - 1.0).abs() > f64::from(DIR_LENGTH_TOLERANCE) {
+        return Some(format!(
+            "direction {} has length {length:e}; directions must be normalized \
+             (length 1 ± {DIR_LENGTH_TOLERANCE:e})",
+            r.dir
+        ));
+    }
+    None
+}
+
+/// Refuses the first ray of a rays file that [`ray_problem`] finds wrong.
 ///
 /// # Errors
-/// The ray's index, its direction and that direction's length, naming `path`.
-pub fn check_normalized(path: &Path, rays: &[Ray]) -> Result<()> {
-    let finite = |r: &Ray| {
-        r.origin.is_finite() && r.dir.is_finite() && r.tmin.is_finite() && !r.tmax.is_nan()
-    };
-    let bad = rays.iter().position(|r| {
-        finite(r) && (r.dir.as_dvec3().length() - 1.0).abs() > f64::from(DIR_LENGTH_TOLERANCE)
-    });
-    match bad {
+/// The ray's index and its problem, naming `path`.
+pub fn check_rays(path: &Path, rays: &[Ray]) -> Result<()> {
+    match rays
+        .iter()
+        .enumerate()
+        .find_map(|(i, r)| Some((i, ray_problem(r)?)))
+    {
         None => Ok(()),
-        Some(i) => {
-            let d = rays[i].dir;
-            let msg = format!(
-                "ray {i}: direction {d} has length {:e}; directions must be normalized \
-                 (length 1 ± {DIR_LENGTH_TOLERANCE:e})",
-                d.as_dvec3().length()
-            );
-            Err(Error::new(path, msg))
-        }
+        Some((i, problem)) => Err(Error::new(path, format!("ray {i}: {problem}"))),
     }
 }
 

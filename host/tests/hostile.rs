@@ -299,8 +299,9 @@ fn every_subcommand_refuses_every_bad_input_class() {
         let file = d.join(name);
         std::fs::write(&file, bytes).unwrap();
         let out = kdray(&["trace", s(&kdt), "--rays", s(&file), "--out", s(&hits)]);
-        // An empty rays file is zero rays (a valid, empty hits file); NaN rays are misses.
-        if name == "e.rays" || name == "n.rays" {
+        // An empty rays file is zero rays (a valid, empty hits file); a NaN ray is refused
+        // (`rays_that_ask_another_question_are_refused`).
+        if name == "e.rays" {
             assert!(out.status.success(), "{name}: {}", stderr(&out));
         } else {
             assert_fails(&out, 1, name, "");
@@ -528,4 +529,57 @@ fn outputs_are_checked_before_the_work() {
     assert_fails(&out, 1, "/missing-dir/h", "does not exist");
     let out = kdray(&["rays", s(&missing_scene), "-o", s(&d)]);
     assert_fails(&out, 1, s(&d), "is a directory");
+}
+
+/// Issue 20: a ray with `tmin = −inf` was traced (as the whole line behind its origin) and its
+/// "hit" written out, exit 0; NaN and infinite rays were written out as misses. Each such ray is
+/// now refused by index, naming the rays file, and no hits file is written; `tmin = tmax` (an
+/// empty interval) and `tmax = +inf` stay valid.
+#[test]
+fn rays_that_ask_another_question_are_refused() {
+    let d = dir("bad-rays");
+    let (kdt, hits) = (d.join("one.kdt"), d.join("hits.bin"));
+    std::fs::write(d.join("one.tri"), tri_bytes(&GOOD_TRI)).unwrap();
+    let built = kdray(&["build", s(&d.join("one.tri")), "-o", s(&kdt)]);
+    assert!(built.status.success(), "{}", stderr(&built));
+    let good = [0.25, 0.25, 1.0, 0.0, 0.0, -1.0, 0.0, f32::INFINITY];
+    let with = |k: usize, v: f32| {
+        let mut r = good;
+        r[k] = v;
+        r
+    };
+    let bad = [
+        (
+            "tmin -inf",
+            with(6, f32::NEG_INFINITY),
+            "tmin must be finite",
+        ),
+        ("tmin +inf", with(6, f32::INFINITY), "tmin must be finite"),
+        ("tmin NaN", with(6, f32::NAN), "tmin must be finite"),
+        ("tmax NaN", with(7, f32::NAN), "tmax finite or +inf"),
+        (
+            "tmax -inf",
+            with(7, f32::NEG_INFINITY),
+            "tmax finite or +inf",
+        ),
+        ("tmin > tmax", with(7, -1.0), "tmin is above tmax"),
+        ("origin inf", with(0, f32::INFINITY), "not finite"),
+        ("direction NaN", with(3, f32::NAN), "not finite"),
+    ];
+    for (what, ray, words) in bad {
+        let file = d.join("bad.rays");
+        std::fs::write(&file, ray_bytes(&[good, good, ray])).unwrap();
+        let out = kdray(&["trace", s(&kdt), "--rays", s(&file), "--out", s(&hits)]);
+        assert_fails(&out, 1, "bad.rays", "ray 2");
+        assert!(stderr(&out).contains(words), "{what}: {}", stderr(&out));
+        assert!(!hits.exists(), "{what}");
+    }
+    let empty = with(7, 0.0); // tmin = tmax = 0: nothing can lie in between
+    let file = d.join("ok.rays");
+    std::fs::write(&file, ray_bytes(&[good, empty])).unwrap();
+    let out = kdray(&["trace", s(&kdt), "--rays", s(&file), "--out", s(&hits)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let bytes = std::fs::read(&hits).unwrap();
+    let t = |i: usize| f32::from_le_bytes(bytes[16 * i..16 * i + 4].try_into().unwrap());
+    assert_eq!((t(0), t(1)), (1.0, f32::INFINITY));
 }

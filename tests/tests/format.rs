@@ -387,9 +387,14 @@ fn each_corruption_has_its_own_error() {
         Err(FormatError::BadPrimitive { .. })
     ));
     let indices = good[header::INDICES_OFFSET] as usize;
+    assert_eq!(
+        corrupt(&|w| w[indices + 1] = 10_000),
+        Err(FormatError::BadIndex { index: 1 })
+    );
+    // Leaves must use the index list in turn (see `leaves_sharing_an_index_range_are_refused`).
     assert!(matches!(
-        corrupt(&|w| w[indices] = 10_000),
-        Err(FormatError::BadPrimitive { .. })
+        corrupt(&|w| w[many] += 1),
+        Err(FormatError::IndexOrder { .. } | FormatError::BadPrimitive { .. })
     ));
     let ids = good[header::INPUT_IDS_OFFSET] as usize;
     assert_eq!(
@@ -443,6 +448,105 @@ fn a_tree_deeper_than_the_stack_is_rejected() {
     assert_eq!(check(&w), Err(FormatError::BadDepth));
 }
 
+/// A complete tree of `depth` levels below the root (all splits at x = 0), whose `2^depth` leaves
+/// hold `per_leaf` primitive references each into an index list of `n_indices` zeros: leaf `k`'s
+/// range starts at `start(k)`. One sphere at the origin is primitive 0.
+fn tree_of_leaves(
+    depth: u32,
+    per_leaf: u32,
+    n_indices: u32,
+    start: &dyn Fn(u32) -> u32,
+) -> Vec<u32> {
+    fn push(nodes: &mut Vec<Node>, level: u32, leaves: &mut u32, leaf: &dyn Fn(u32) -> Node) {
+        if level == 0 {
+            nodes.push(leaf(*leaves));
+            *leaves += 1;
+            return;
+        }
+        let at = nodes.len();
+        nodes.push(Node::leaf(0, 0));
+        push(nodes, level - 1, leaves, leaf);
+        let above = nodes.len() as u32;
+        nodes[at] = Node::interior(0, 0.0, above, [false; 2]);
+        push(nodes, level - 1, leaves, leaf);
+    }
+    let mut nodes = Vec::new();
+    push(&mut nodes, depth, &mut 0, &|k| {
+        Node::leaf(per_leaf, start(k))
+    });
+    let mut w = vec![0u32; HEADER_WORDS];
+    w[header::MAGIC] = MAGIC;
+    w[header::VERSION] = VERSION;
+    w[header::CONTENTS] = contents::SPHERES;
+    w[header::NODE_COUNT] = nodes.len() as u32;
+    w[header::SPHERE_COUNT] = 1;
+    w[header::INDEX_COUNT] = n_indices;
+    w[header::DEPTH] = depth;
+    for k in 0..6 {
+        w[header::BOUNDS + k] = if k < 3 { -1.0f32 } else { 1.0 }.to_bits();
+    }
+    w[header::NODES_OFFSET] = w.len() as u32;
+    w.extend(nodes.iter().flat_map(|n| n.words()));
+    w.resize(w.len().next_multiple_of(8), 0);
+    w[header::INDICES_OFFSET] = w.len() as u32;
+    w.resize(w.len() + n_indices as usize, 0);
+    w.resize(w.len().next_multiple_of(8), 0);
+    w[header::SPHERES_OFFSET] = w.len() as u32;
+    w.extend([0.0f32, 0.0, 0.0, 0.5].map(f32::to_bits));
+    w[header::TOTAL_WORDS] = w.len() as u32;
+    seal(&mut w);
+    w
+}
+
+/// Issue 20's probe: 131,072 leaves all naming one 500,000-entry range of the index list, a 4 MB
+/// file, took 40 s to validate (every leaf re-checked the range: leaves × range checks). Leaves
+/// must now use the list in turn, so the second leaf is refused at once and validation stays
+/// linear in the words. The same shape with each leaf on its own range is accepted, and there the
+/// leaves' references add up to exactly the list's length: the work of validating them, and the
+/// most primitives one ray can test, are bounded by the file's length.
+#[test]
+fn leaves_sharing_an_index_range_are_refused() {
+    // Smaller than the probe (1,024 leaves × 20,000), to keep the test quick on a build that
+    // still accepted it; the rule refuses any size at the second leaf.
+    let (depth, per_leaf) = (10u32, 20_000u32);
+    let shared = tree_of_leaves(depth, per_leaf, per_leaf, &|_| 0);
+    // The root's below subtree runs down to leaf 0 at node `depth`; leaf 1 is the next node.
+    assert_eq!(
+        check(&shared),
+        Err(FormatError::IndexOrder { node: depth + 1 })
+    );
+    // Two neighbouring leaves swapped, and overlapping by one entry.
+    let swapped = tree_of_leaves(3, 2, 16, &|k| 2 * (k ^ 1));
+    assert!(matches!(
+        check(&swapped),
+        Err(FormatError::IndexOrder { .. })
+    ));
+    let overlapping = tree_of_leaves(3, 2, 16, &|k| k);
+    assert!(matches!(
+        check(&overlapping),
+        Err(FormatError::IndexOrder { .. })
+    ));
+    // A list longer than the leaves use.
+    let longer = tree_of_leaves(3, 2, 17, &|k| 2 * k);
+    assert_eq!(check(&longer), Err(FormatError::UnusedIndices { from: 16 }));
+    let tiled = tree_of_leaves(6, 100, 64 * 100, &|k| 100 * k);
+    let scene = Scene::from_words(&tiled).unwrap();
+    assert_eq!(leaf_references(&scene), 64 * 100);
+    assert!(leaf_references(&scene) <= tiled.len() as u64);
+    let hit = scene.intersect(&Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z));
+    assert_eq!((hit.prim, hit.t), (0, 4.5));
+}
+
+/// The primitive references of the leaves with an index list, summed over the nodes: what
+/// validating them costs, and a bound on what one walk tests.
+fn leaf_references(scene: &Scene) -> u64 {
+    (0..scene.node_count())
+        .map(|i| scene.node(i))
+        .filter(|n| n.is_leaf() && n.prim_count() > 1)
+        .map(|n| u64::from(n.prim_count()))
+        .sum()
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: kdray_tests::cases(2000), ..ProptestConfig::default() })]
 
@@ -463,6 +567,9 @@ proptest! {
         }
         seal(&mut words);
         if let Ok(scene) = Scene::from_words(&words) {
+            // Whatever the mutation, an accepted file's leaves reference at most the index
+            // list's entries, each once: linear validation and walks.
+            prop_assert!(leaf_references(&scene) <= words[header::INDEX_COUNT] as u64);
             for d in [Vec3::X, Vec3::NEG_Y, Vec3::new(0.3, 0.4, -0.5).normalize()] {
                 let _ = scene.intersect(&Ray::new(Vec3::new(1.0, 0.5, 0.0), d));
                 let _ = scene.occluded(&Ray::new(Vec3::new(1.0, 0.5, 0.0), d));

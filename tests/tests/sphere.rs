@@ -376,3 +376,51 @@ fn sphere_hand_checked_cases() {
     assert_eq!(s.normal(Vec3::new(0.0, 0.0, 3.0)), -Vec3::Z);
     assert_eq!(s.normal(Vec3::new(0.0, 2.0, 5.0)), Vec3::Y);
 }
+
+/// Issue 20: a sphere far from the ray's origin (1e19 and beyond) reported its far side: `|o − c|²`
+/// overflowed f32 to `+inf`, so did the near root `cq / q`, and the far root `q` came first.
+/// Both roots are now right, to a few ulp, for spheres and origins anywhere in f32's range, in
+/// the scalar kernel, the 4- and 8-wide kernels (lane for lane the scalar's bits), and a walk
+/// through a built scene.
+#[test]
+fn far_spheres_report_their_near_side() {
+    use kdray_core::simd::{RayPacket, f32x4, f32x8, intersect_sphere};
+    for s in [1e3f32, 1e18, 1e19, 3e19, 1e20, 1e30, 1e37] {
+        // The sphere ahead of an origin at 0, and an origin far out behind a sphere at 0; the
+        // roots are s and 3s, exact in f64.
+        let cases = [
+            (Vec3::new(0.0, 0.0, -2.0 * s), Vec3::ZERO),
+            (Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0 * s)),
+        ];
+        for (center, origin) in cases {
+            let sphere = Sphere { center, radius: s };
+            let ray = Ray::new(origin, Vec3::NEG_Z);
+            let (near, far) = sphere.roots(&ray).expect("the line crosses the sphere");
+            let close = |t: f32, want: f32| (t - want).abs() <= 4.0 * f32::EPSILON * want;
+            assert!(
+                close(near, s) && close(far, 3.0 * s),
+                "s = {s:e}: {near:e}, {far:e}"
+            );
+            assert_eq!(sphere.intersect(&ray), Some(near), "s = {s:e}");
+            let rays = [ray, ray.with_range(2.0 * s, f32::INFINITY)];
+            let p4 = intersect_sphere(&sphere, &RayPacket::<f32x4>::from_rays(&rays));
+            let p8 = intersect_sphere(&sphere, &RayPacket::<f32x8>::from_rays(&rays));
+            assert_eq!(p4.t.to_array()[..2], [near, far], "s = {s:e}");
+            assert_eq!(p8.t.to_array()[..2], [near, far], "s = {s:e}");
+        }
+    }
+    // Through the builder, the format and the walks: the scene spans ±3e19.
+    let geom = kdray::Geometry {
+        spheres: vec![(Vec3::new(0.0, 0.0, -2e19), 1e19)],
+        ..kdray::Geometry::default()
+    };
+    let params = kdray::build::BuildParams::default();
+    let tree = kdray::build::build(&geom, &params, None).unwrap();
+    let words = kdray::flat::serialize(&tree, &geom, 0.0).unwrap();
+    let scene = kdray_core::Scene::from_words(&words).unwrap();
+    let ray = Ray::new(Vec3::ZERO, Vec3::NEG_Z);
+    let hit = scene.intersect(&ray);
+    assert_eq!((hit.prim, hit.t), (0, 1e19));
+    let packet = scene.intersect_packet(&RayPacket::<f32x8>::from_rays(&[ray]));
+    assert_eq!(packet.t.to_array()[0], 1e19);
+}

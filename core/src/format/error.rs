@@ -55,6 +55,20 @@ pub enum FormatError {
     BadPrimitive {
         node: u32,
     },
+    /// An entry of the primitive-index list is not below the primitive count.
+    BadIndex {
+        index: u32,
+    },
+    /// A leaf's index-list range does not start where the previous leaf's (in node order) ends:
+    /// ranges shared, overlapping or out of order (see "Cost of validation" in
+    /// [`crate::format`]).
+    IndexOrder {
+        node: u32,
+    },
+    /// The leaves' index-list ranges end before the list does (entries no leaf uses).
+    UnusedIndices {
+        from: u32,
+    },
     /// An input id is not below the triangle count.
     BadInputId {
         triangle: u32,
@@ -130,6 +144,19 @@ impl core::fmt::Display for FormatError {
             }
             Self::BadPrimitive { node } => {
                 write!(f, "node {node}: primitive reference out of range")
+            }
+            Self::BadIndex { index } => {
+                write!(f, "primitive-index entry {index} is out of range")
+            }
+            Self::IndexOrder { node } => write!(
+                f,
+                "node {node}: index-list range is shared or out of order (leaves must use the list in turn)"
+            ),
+            Self::UnusedIndices { from } => {
+                write!(
+                    f,
+                    "primitive-index entries from {from} on are used by no leaf"
+                )
             }
             Self::BadInputId { triangle } => {
                 write!(f, "triangle {triangle}: input id out of range")

@@ -229,8 +229,17 @@ impl<'a> Scene<'a> {
     /// exactly the order `0, 1, 2, …` (the pre-order layout the builder writes). That makes every
     /// child index greater than its parent's, every node reachable exactly once, and so bounds
     /// every later walk. Returns the tree's depth.
+    ///
+    /// The leaves' index-list ranges must tile the list in that same order (see "Cost of
+    /// validation" in the [module doc](super)): one pass over the list checks every id, and each
+    /// leaf costs O(1), so the whole walk is linear in the words.
     fn validate_tree(&self, n_prims: u32) -> Result<u32, FormatError> {
         let n_nodes = self.node_count();
+        if let Some(i) = self.indices.iter().position(|&p| p >= n_prims) {
+            return Err(FormatError::BadIndex { index: i as u32 });
+        }
+        // Where the next leaf with an index list must start.
+        let mut next_index = 0usize;
         // Pending above-children and their depths; capacity bounds the depth we accept.
         let mut stack: heapless::Vec<(u32, u32), MAX_DEPTH> = heapless::Vec::new();
         let mut next = 0u32; // the index the pre-order walk must visit next
@@ -247,7 +256,7 @@ impl<'a> Scene<'a> {
             next += 1;
             let node = self.node(index);
             if node.is_leaf() {
-                self.validate_leaf(index, node, n_prims)?;
+                self.validate_leaf(index, node, n_prims, &mut next_index)?;
                 current = stack.pop();
             } else {
                 let axis = node.axis();
@@ -271,6 +280,11 @@ impl<'a> Scene<'a> {
         }
         if next != n_nodes {
             return Err(FormatError::BadChild { node: next });
+        }
+        if next_index != self.indices.len() {
+            return Err(FormatError::UnusedIndices {
+                from: next_index as u32,
+            });
         }
         Ok(max_depth)
     }
@@ -302,7 +316,16 @@ impl<'a> Scene<'a> {
         Ok(())
     }
 
-    fn validate_leaf(&self, index: u32, node: Node, n_prims: u32) -> Result<(), FormatError> {
+    /// A leaf's primitives exist: its one id is below `n_prims`, or its index-list range is the
+    /// one starting at `next_index` (the ids in it were checked once, in [`Self::validate_tree`]),
+    /// which it then advances past.
+    fn validate_leaf(
+        &self,
+        index: u32,
+        node: Node,
+        n_prims: u32,
+        next_index: &mut usize,
+    ) -> Result<(), FormatError> {
         let bad = FormatError::BadPrimitive { node: index };
         match node.prim_count() {
             0 => Ok(()),
@@ -311,10 +334,16 @@ impl<'a> Scene<'a> {
             n => {
                 let start = node.payload() as usize;
                 let end = start.checked_add(n as usize).ok_or(bad)?;
-                match self.indices.get(start..end) {
-                    Some(ids) if ids.iter().all(|&p| p < n_prims) => Ok(()),
-                    _ => Err(bad),
+                if end > self.indices.len() {
+                    return Err(bad);
                 }
+                // Leaves sharing or skipping part of the list: a shared range re-read per leaf
+                // made validation (and every walk through those leaves) quadratic in the file.
+                if start != *next_index {
+                    return Err(FormatError::IndexOrder { node: index });
+                }
+                *next_index = end;
+                Ok(())
             }
         }
     }

@@ -100,13 +100,22 @@ pub fn intersect_triangle_prepared<L: Lanes>(
 /// The same cancellation-free roots as [`Sphere::roots`] (Haines et al., Ray Tracing Gems ch. 7),
 /// operation for operation: `disc = R² − |f − b·d|²`, `q = −b − sign(b)·√disc` with `sign(±0) =
 /// ±1`, `t0 = cq / q` (0 where `q = 0`), near/far ordered by `t0 <= q`; then the near root if it
-/// lies in `(tmin, tmax)`, else the far one.
+/// lies in `(tmin, tmax)`, else the far one. Lanes far from the origin are scaled as there
+/// ([`crate::sphere::FAR`]).
 #[inline]
 pub fn intersect_sphere<L: Lanes>(sphere: &Sphere, rays: &RayPacket<L>) -> PrimHits<L> {
     let zero = L::splat(0.0);
-    let f = rays.origin - Vec3x::splat(sphere.center);
+    let o = rays.origin;
+    let big = o.x.abs().max(o.y.abs()).max(o.z.abs());
+    let c = sphere.center;
+    let fixed = c.abs().max_element().max(sphere.radius);
+    let scaled = big.max(L::splat(fixed)).gt(L::splat(crate::sphere::FAR));
+    let k = scaled.select(L::splat(crate::sphere::FAR_SCALE), L::splat(1.0));
+    let unscale = scaled.select(L::splat(1.0 / crate::sphere::FAR_SCALE), L::splat(1.0));
+    let f = o.scale(k) - Vec3x::splat(c).scale(k);
     let b = f.dot(rays.dir);
-    let r2 = L::splat(sphere.radius * sphere.radius);
+    let radius = L::splat(sphere.radius) * k;
+    let r2 = radius * radius;
     let perp = f - rays.dir.scale(b);
     let disc = r2 - perp.dot(perp);
     let real = disc.ge(zero);
@@ -119,8 +128,8 @@ pub fn intersect_sphere<L: Lanes>(sphere: &Sphere, rays: &RayPacket<L>) -> PrimH
     let cq = f.dot(f) - r2;
     let t0 = q.ne(zero).select(cq / q, zero);
     let t0_first = t0.le(q);
-    let near = t0_first.select(t0, q);
-    let far = t0_first.select(q, t0);
+    let near = t0_first.select(t0, q) * unscale;
+    let far = t0_first.select(q, t0) * unscale;
     let near_in = near.gt(rays.tmin) & near.lt(rays.tmax);
     let far_in = far.gt(rays.tmin) & far.lt(rays.tmax);
     PrimHits {

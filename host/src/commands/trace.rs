@@ -108,7 +108,7 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
 pub fn trace(args: &TraceArgs) -> Result<()> {
     files::check_output(&args.out)?;
     let rays = rays::read_rays(&args.rays)?;
-    rays::check_normalized(&args.rays, &rays)?;
+    rays::check_rays(&args.rays, &rays)?;
     let (words, build_ms) = load_scene_words(&args.input, &args.build)?;
     // Blocks on cache lines (see `flat::Aligned`).
     let words = kdray::flat::Aligned::new(&words);

@@ -60,8 +60,9 @@ impl SceneFile {
     pub fn geometry(&self) -> Result<Geometry> {
         let base = self.path.parent().unwrap_or(Path::new(""));
         let mut out = Geometry::default();
+        let resolve = self.material_resolver();
         let material = |name: Option<&str>, line: Option<usize>| {
-            self.material_index(name).ok_or_else(|| {
+            resolve(name).ok_or_else(|| {
                 self.error(line, format!("unknown material `{}`", name.unwrap_or("")))
             })
         };
