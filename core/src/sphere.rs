@@ -34,9 +34,10 @@ pub struct Sphere {
 /// it every `|f_i| ≤ 2⁶¹`, so `|f|²`, `|f − b·d|²` and `R²` stay below 2¹²⁴ (f32's largest is
 /// about 2¹²⁸).
 pub const FAR: f32 = (1u64 << 60) as f32;
-/// 2⁻⁶⁸: scales the largest finite f32 (below 2¹²⁸) under 2⁶⁰. Values smaller than the largest
-/// by more than 2⁸¹ may then lose bits to subnormals: far below what that largest value's ulp
-/// (2⁻²⁴ of it) can resolve anyway.
+/// 2⁻⁶⁸: scales the largest finite f32 (below 2¹²⁸) under 2⁶⁰. Scaled, a radius below 2⁵ loses
+/// bits when squared (a subnormal), but it is then under 2⁻⁵⁵ of the magnitude that asked for the
+/// scale, far below that magnitude's ulp (2⁻²³ of it): such a sphere is beneath f32's resolution
+/// there in any form.
 pub const FAR_SCALE: f32 = 1.0 / (1u128 << 68) as f32;
 
 impl Sphere {
