@@ -277,6 +277,18 @@ impl CameraDesc {
                          thicker than 0 at the aperture's rim"
                     )
                 })?;
+                // A lens the checks above admit can still overflow the lensmaker's equation in
+                // f32 (an ior of 1e30: (n − 1)² d / n overflows): blame the lens, not the field of
+                // view or the sensor that the camera's own check would then find non-finite.
+                let (h1, h2) = shape.principal_planes();
+                let f = shape.focal_length();
+                if !(f.is_finite() && h1.is_finite() && h2.is_finite()) {
+                    return Err(format!(
+                        "thick_lens: the lens r1 = {r1}, r2 = {r2}, l1 = {l1}, l2 = {l2}, \
+                         ior = {ior} overflows f32 in the lensmaker's equation (focal length \
+                         {f}): the ior or the radii are too extreme"
+                    ));
+                }
                 let cam = match focus {
                     Focus::Distance(d) => ThickLens::focused(frame, shape, d, vfov),
                     Focus::Sensor(s) => ThickLens::new(frame, shape, s, vfov),
@@ -287,9 +299,18 @@ impl CameraDesc {
                          the focus must lie farther than that in front of it",
                         shape.focal_length()
                     ),
-                    _ => "thick_lens: vfov must lie in (0, 180) and the sensor must lie behind \
-                          the lens (sensor > 0)"
-                        .to_string(),
+                    _ if !(vfov > 0.0 && vfov < 180.0) => {
+                        format!("thick_lens: vfov = {vfov} must lie in (0, 180)")
+                    }
+                    (_, Focus::Sensor(s)) => format!(
+                        "thick_lens: sensor = {s} must be finite, above 0 and behind the lens's \
+                         sensor-side principal plane"
+                    ),
+                    (_, Focus::Distance(d)) => format!(
+                        "thick_lens: focus = {d} puts the sensor in front of the lens (focal length \
+                         {:.4})",
+                        shape.focal_length()
+                    ),
                 })?)
             }
             Self::LensArray {
