@@ -88,10 +88,7 @@ pub fn check_output(path: &Path) -> Result<()> {
         return Err(Error::new(path, msg));
     }
     if let Err(e) = temp_in(path) {
-        let msg = format!(
-            "cannot write in the directory {}: {e}",
-            parent.display()
-        );
+        let msg = format!("cannot write in the directory {}: {e}", parent.display());
         return Err(Error::new(path, msg));
     }
     Ok(())
@@ -136,7 +133,10 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
             return Err(Error::new(out, msg));
         }
         let here = place(out);
-        if let Some(other) = outputs[..k].iter().find(|o| here.is_some() && place(o) == here) {
+        if let Some(other) = outputs[..k]
+            .iter()
+            .find(|o| here.is_some() && place(o) == here)
+        {
             let msg = format!(
                 "is also the output {}: two outputs cannot be one file",
                 other.display()
@@ -179,7 +179,9 @@ impl Staged {
     /// The rename fails (the temporary is then removed).
     pub fn commit(self) -> Result<()> {
         let path = self.path;
-        self.temp.persist(&path).map_err(|e| Error::io(&path, e.error))
+        self.temp
+            .persist(&path)
+            .map_err(|e| Error::io(&path, e.error))
     }
 }
 

@@ -312,7 +312,9 @@ pub fn write_kdt(path: &Path, words: &[u32]) -> Result<()> {
 /// As [`write_kdt`].
 pub fn stage_kdt(path: &Path, words: &[u32]) -> Result<crate::files::Staged> {
     crate::files::stage(path, |w| {
-        words.iter().try_for_each(|word| w.write_all(&word.to_le_bytes()))
+        words
+            .iter()
+            .try_for_each(|word| w.write_all(&word.to_le_bytes()))
     })
 }
 

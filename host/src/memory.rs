@@ -22,8 +22,9 @@ use std::path::Path;
 /// included; 512 leaves a third more for unlucky distributions.
 pub const BUILD_BYTES_PER_PRIM: u64 = 512;
 
-/// Checks that `bytes` can be allocated now, for `what` (e.g. "a 8192x8192 image"), whose size
-/// `cap` admitted (e.g. "images up to 67108864 pixels"); `path` names the input or output.
+/// Checks that `bytes` can be allocated now, for `what` (e.g. "a 8192x8192 render"), whose size
+/// the cap described by `cap` admitted (e.g. "images up to 67108864 pixels are accepted, memory
+/// permitting"); `path` names the input or output.
 ///
 /// # Errors
 /// The allocator refuses `bytes` (or `bytes` does not fit in `usize`).
@@ -35,8 +36,8 @@ pub fn ensure(path: &Path, bytes: u64, what: &str, cap: &str) -> Result<()> {
         return Ok(());
     }
     let msg = format!(
-        "{what} needs {} of memory, which cannot be allocated here (out of memory or \
-         address space); {cap} are accepted, memory permitting",
+        "{what}: {} of memory needed, which cannot be allocated here (out of memory, or an \
+         address-space limit); {cap}",
         mib(bytes)
     );
     Err(Error::new(path, msg))
@@ -58,9 +59,14 @@ mod tests {
     #[test]
     fn small_amounts_fit_and_absurd_ones_are_refused() {
         assert!(ensure(Path::new("a"), 1 << 20, "x", "y").is_ok());
-        let err = ensure(Path::new("a.png"), u64::MAX, "a huge image", "images up to 4 pixels")
-            .unwrap_err()
-            .to_string();
+        let err = ensure(
+            Path::new("a.png"),
+            u64::MAX,
+            "a huge image",
+            "up to 4 pixels",
+        )
+        .unwrap_err()
+        .to_string();
         assert!(
             err.contains("a.png") && err.contains("a huge image") && err.contains("up to 4"),
             "{err}"

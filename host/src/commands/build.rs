@@ -100,7 +100,7 @@ pub fn build_words(
         prims * kdray::memory::BUILD_BYTES_PER_PRIM,
         &format!("a build of {prims} primitives"),
         &format!(
-            "meshes of any size ({} bytes a primitive)",
+            "a build takes about {} bytes a primitive",
             kdray::memory::BUILD_BYTES_PER_PRIM
         ),
     )?;

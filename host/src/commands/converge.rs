@@ -107,7 +107,10 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
         &file.path,
         u64::from(width) * u64::from(height) * 2 * super::render::RENDER_BYTES_PER_PIXEL,
         &format!("a {width}x{height} convergence run"),
-        &format!("images up to {} pixels", super::MAX_PIXELS),
+        &format!(
+            "images up to {} pixels are accepted, memory permitting",
+            super::MAX_PIXELS
+        ),
     )?;
     let settings = |seed: u64| Settings {
         width,

@@ -228,7 +228,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         &args.out,
         pixels * RENDER_BYTES_PER_PIXEL,
         &format!("a {}x{} render", settings.width, rows.len()),
-        &format!("images up to {MAX_PIXELS} pixels"),
+        &format!("images up to {MAX_PIXELS} pixels are accepted, memory permitting"),
     )?;
     let timed = args.seconds.is_some() || args.noise.is_some();
     let plan = Plan {

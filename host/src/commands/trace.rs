@@ -46,8 +46,8 @@ pub struct TraceArgs {
     /// (docs/ROBUSTNESS.md); slower than the default fast mode (README).
     #[arg(long)]
     pub watertight: bool,
-    /// Trace this many times and report the fastest.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Trace this many times and report the fastest (1 to 1000: a bound on the run time).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub repeat: u32,
     #[command(flatten)]
     pub build: BuildArgs,
@@ -231,7 +231,10 @@ pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64
         out,
         u64::from(size.0) * u64::from(size.1) * per_ray,
         &format!("a {}x{} ray set", size.0, size.1),
-        &format!("sets up to {} rays", super::MAX_PIXELS),
+        &format!(
+            "sets up to {} rays are accepted, memory permitting",
+            super::MAX_PIXELS
+        ),
     )?;
     let primary = rays::primary_rays(&camera, size.0, size.1);
     let set = match kind {

@@ -373,8 +373,13 @@ fn parse(path: &Path, data: &[u8]) -> Result<Geometry> {
         crate::memory::ensure(
             path,
             bytes,
-            &format!("its {n} triangles"),
-            "meshes of any size",
+            &format!("its {n} triangles (and their build)"),
+            &format!(
+                "a .ply.gz inflates to at most {} MiB, and a triangle takes about {} bytes to \
+                 hold and build",
+                MAX_INFLATED >> 20,
+                per
+            ),
         )
     };
     let extra = 36 + if layout.normals { 36 } else { 0 } + if layout.uvs { 24 } else { 0 };

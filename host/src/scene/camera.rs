@@ -277,16 +277,18 @@ impl CameraDesc {
                          thicker than 0 at the aperture's rim"
                     )
                 })?;
-                // A lens the checks above admit can still overflow the lensmaker's equation in
-                // f32 (an ior of 1e30: (n − 1)² d / n overflows): blame the lens, not the field of
-                // view or the sensor that the camera's own check would then find non-finite.
+                // A lens the checks above admit can still be beyond f32: an ior of 1e30 gives a
+                // focal length of 1e-31, which vanishes next to the lens's thickness when the
+                // sensor is placed, and the camera's own check then fails on the sensor. Blame the
+                // lens (ior first: the usual culprit), not the field of view or the focus.
                 let (h1, h2) = shape.principal_planes();
                 let f = shape.focal_length();
-                if !(f.is_finite() && h1.is_finite() && h2.is_finite()) {
+                let size = r1.max(r2).max(l1 + l2);
+                if !(f.is_finite() && f.abs() > 1e-6 * size && h1.is_finite() && h2.is_finite()) {
                     return Err(format!(
-                        "thick_lens: the lens r1 = {r1}, r2 = {r2}, l1 = {l1}, l2 = {l2}, \
-                         ior = {ior} overflows f32 in the lensmaker's equation (focal length \
-                         {f}): the ior or the radii are too extreme"
+                        "thick_lens: ior = {ior} (with r1 = {r1}, r2 = {r2}, l1 = {l1}, \
+                         l2 = {l2}) gives a focal length of {f:e}, beyond what f32 can place a \
+                         sensor for (it must be finite and more than 1e-6 of the lens's size)"
                     ));
                 }
                 let cam = match focus {
