@@ -112,7 +112,7 @@ fn trace_repeat_is_capped() {
     ];
     let run = kdray(&[&args[..], &["4294967295"]].concat());
     fails(&run, 2, &["--repeat", "1000"]);
-    let run = kdray(&[&args[..], &["3"]].concat());
+    let run = common::kdray(&[&args[..], &["3"]].concat());
     assert!(
         run.status.success(),
         "{}",

@@ -40,7 +40,7 @@ fn part(d: &Path) -> Vec<u8> {
     )
     .unwrap();
     let out = d.join("whole.exr");
-    let run = kdray(&[
+    let run = common::kdray(&[
         "render",
         s(&scene),
         "--size",
