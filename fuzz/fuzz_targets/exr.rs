@@ -22,7 +22,10 @@ fuzz_target!(|data: &[u8]| {
     };
     let (w, h) = (band.width as u64, band.height as u64);
     assert!(w * h <= MAX_PIXELS, "{w}x{h} accepted past the cap");
-    assert!(w > 0 && band.pixels.len() as u64 % w == 0, "partial rows");
+    assert!(
+        w > 0 && (band.pixels.len() as u64).is_multiple_of(w),
+        "partial rows"
+    );
     let rows = band.pixels.len() as u64 / w;
     assert!(u64::from(band.first_row) + rows <= h, "rows past the image");
     assert!(
