@@ -55,12 +55,22 @@ pub fn read_text(path: &Path) -> Result<String> {
     })
 }
 
-/// Checks, before any work, that `path` can be written as an output file: it is not a directory
-/// and its parent directory exists. (Permissions are left to the write itself.)
+/// The directory an output `path` is written in (`.` for a bare file name).
+fn folder(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Checks, before any work, that `path` can be written as an output file: it is not a directory,
+/// its parent directory exists, and a file can be created in it (by creating, exclusively, and
+/// removing a temporary file there: permission bits alone do not say, e.g. on a read-only mount
+/// or for root), so that a render of an hour does not end in "permission denied".
 ///
 /// # Errors
-/// `path` is an existing directory, ends in a separator, or its parent is missing or not a
-/// directory.
+/// `path` is an existing directory, ends in a separator, or its parent is missing, not a
+/// directory or not writable.
 pub fn check_output(path: &Path) -> Result<()> {
     let text = path.as_os_str().to_string_lossy();
     if path.is_dir() || text.ends_with('/') || text.is_empty() {
@@ -69,10 +79,7 @@ pub fn check_output(path: &Path) -> Result<()> {
             "is a directory: the output must name a file",
         ));
     }
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let parent = folder(path);
     if !parent.is_dir() {
         let msg = format!(
             "cannot write here: the directory {} does not exist",
@@ -80,7 +87,144 @@ pub fn check_output(path: &Path) -> Result<()> {
         );
         return Err(Error::new(path, msg));
     }
+    if let Err(e) = temp_in(path) {
+        let msg = format!("cannot write in the directory {}: {e}", parent.display());
+        return Err(Error::new(path, msg));
+    }
     Ok(())
+}
+
+/// The identity of an existing file: (device, inode) on Unix, the canonical path elsewhere.
+#[cfg(unix)]
+fn identity(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+
+#[cfg(not(unix))]
+fn identity(path: &Path) -> Option<PathBuf> {
+    std::fs::canonicalize(path).ok()
+}
+
+/// Where `path` will be once written: its folder made canonical (symbolic links and `..`
+/// resolved), joined with its name. Two outputs with the same place would overwrite each other.
+fn place(path: &Path) -> Option<PathBuf> {
+    let folder = std::fs::canonicalize(folder(path)).ok()?;
+    Some(folder.join(path.file_name()?))
+}
+
+/// [`check_output`] for each of `outputs`, and refuses an output that is one of `inputs` (the same
+/// file by device and inode, however it is named: another path, a hard link or a symbolic link
+/// to it) or the same place as another output (e.g. `build s.toml --description s.toml`, or two
+/// outputs named alike before either exists). Run before any work.
+///
+/// # Errors
+/// The first output at fault, naming the input or output it would overwrite.
+pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
+    for (k, &out) in outputs.iter().enumerate() {
+        check_output(out)?;
+        if let Some(id) = identity(out)
+            && let Some(input) = inputs.iter().find(|i| identity(i).as_ref() == Some(&id))
+        {
+            let msg = format!(
+                "is the input {}: an output must not overwrite an input",
+                input.display()
+            );
+            return Err(Error::new(out, msg));
+        }
+        let here = place(out);
+        if let Some(other) = outputs[..k]
+            .iter()
+            .find(|o| here.is_some() && place(o) == here)
+        {
+            let msg = format!(
+                "is also the output {}: two outputs cannot be one file",
+                other.display()
+            );
+            return Err(Error::new(out, msg));
+        }
+    }
+    Ok(())
+}
+
+/// A new temporary file next to `path`, created exclusively (`O_CREAT | O_EXCL` under a random
+/// name, by the `tempfile` crate) so that nothing planted at its name (a symbolic link, a FIFO)
+/// is followed or written; removed when dropped.
+fn temp_in(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    let name = path
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    let mut builder = tempfile::Builder::new();
+    let prefix = format!(".{name}.");
+    builder.prefix(&prefix).suffix(".tmp");
+    // An output is an ordinary file (0666 less the umask, as `File::create` makes it), not the
+    // temporary's private 0600.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    builder.tempfile_in(folder(path))
+}
+
+/// An output written in full to a temporary file next to it, not yet in place: [`Staged::commit`]
+/// renames it over its path; dropping it removes the temporary. Staging every output of a
+/// command before committing any means a failure leaves none of them behind.
+pub struct Staged {
+    temp: tempfile::TempPath,
+    path: PathBuf,
+}
+
+impl Staged {
+    /// Moves the staged file to its path (replacing a file there).
+    ///
+    /// # Errors
+    /// The rename fails (the temporary is then removed).
+    pub fn commit(self) -> Result<()> {
+        let path = self.path;
+        self.temp
+            .persist(&path)
+            .map_err(|e| Error::io(&path, e.error))
+    }
+}
+
+/// Commits `staged` in order; if one fails, removes the outputs already committed, so that a
+/// command's outputs appear all or none.
+///
+/// # Errors
+/// The first failed commit.
+pub fn commit_all(staged: Vec<Staged>) -> Result<()> {
+    let mut done: Vec<PathBuf> = Vec::new();
+    for s in staged {
+        let path = s.path.clone();
+        if let Err(e) = s.commit() {
+            for p in &done {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(e);
+        }
+        done.push(path);
+    }
+    Ok(())
+}
+
+/// Writes the output `path` in full to a temporary file next to it (see [`Staged`]).
+///
+/// # Errors
+/// As [`check_output`], or `write`, the flush or the sync fails (the temporary is then removed).
+pub fn stage(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> Result<Staged> {
+    check_output(path)?;
+    let (file, temp) = temp_in(path).map_err(|e| Error::io(path, e))?.into_parts();
+    let result = (|| {
+        let mut w = std::io::BufWriter::new(file);
+        write(&mut w)?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()
+    })();
+    result.map_err(|e| Error::io(path, e))?;
+    Ok(Staged {
+        temp,
+        path: path.to_path_buf(),
+    })
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same directory, renamed over `path`
@@ -100,27 +244,7 @@ pub fn write_atomic_with(
     path: &Path,
     write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
 ) -> Result<()> {
-    check_output(path)?;
-    let tmp = temp_name(path);
-    let result = (|| {
-        let file = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(file);
-        write(&mut w)?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
-    })
-}
-
-/// `DIR/.NAME.PID.tmp` next to `path`.
-fn temp_name(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+    stage(path, write)?.commit()
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ use crate::geometry::Geometry;
 use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header, stride};
 use kdray_core::node::Node;
 use kdray_core::{Scene, Triangle};
+use std::io::Write;
 use std::path::Path;
 
 /// How the tree is stored: the node section alone, or also cut into cache-line blocks
@@ -301,8 +302,20 @@ fn flatten(
 
 /// Writes words as a little-endian `.kdt` file, whole or not at all ([`crate::files::write_atomic`]).
 pub fn write_kdt(path: &Path, words: &[u32]) -> Result<()> {
-    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-    crate::files::write_atomic(path, &bytes)
+    stage_kdt(path, words)?.commit()
+}
+
+/// [`write_kdt`] up to the rename: the file written in full next to `path`, not yet in place
+/// ([`crate::files::Staged`]).
+///
+/// # Errors
+/// As [`write_kdt`].
+pub fn stage_kdt(path: &Path, words: &[u32]) -> Result<crate::files::Staged> {
+    crate::files::stage(path, |w| {
+        words
+            .iter()
+            .try_for_each(|word| w.write_all(&word.to_le_bytes()))
+    })
 }
 
 /// Words whose first one lies on a 64-byte boundary, so that the blocks section (at a multiple of

@@ -95,6 +95,14 @@ pub fn write_png_bytes(path: &Path, rgb: &[u8], width: u32, height: u32, srgb: b
 
 /// Writes `band` as a linear f32 RGB EXR (lossless ZIP), its rows placed in the whole image.
 fn write_exr(path: &Path, band: &Band) -> Result<()> {
+    crate::files::write_atomic_with(path, |out| encode_exr(band, out))
+}
+
+/// Encodes `band` as [`write`] stores it in an `.exr` (the `exr` fuzz target encodes to memory).
+///
+/// # Errors
+/// The encoder's or `out`'s.
+pub fn encode_exr(band: &Band, out: impl std::io::Write + std::io::Seek) -> std::io::Result<()> {
     let (w, rows) = (band.width as usize, band.rows() as usize);
     let mut attributes = LayerAttributes::named("rgb");
     attributes.layer_position = Vec2(0, band.first_row as i32);
@@ -111,34 +119,109 @@ fn write_exr(path: &Path, band: &Band) -> Result<()> {
     let mut image = Image::from_layer(layer);
     image.attributes.display_window =
         IntegerBounds::new((0, 0), (band.width as usize, band.height as usize));
-    crate::files::write_atomic_with(path, |out| {
-        image
-            .write()
-            .to_buffered(out)
-            .map_err(|e| std::io::Error::other(format!("cannot write EXR: {e}")))
-    })
+    image
+        .write()
+        .to_buffered(out)
+        .map_err(|e| std::io::Error::other(format!("cannot write EXR: {e}")))
 }
+
+/// The most pixels an image may have: `render --size`, a scene's `[render]` size and every part
+/// `kdray merge` reads (2²⁶, 8192 × 8192: 768 MiB of f32 RGB). The same number bounds the render
+/// descriptions of `kdray_core::description`.
+pub const MAX_PIXELS: u64 = kdray_core::description::MAX_PIXELS;
+
+/// How many uncompressed bytes one byte of an EXR file can honestly stand for: deflate's largest
+/// ratio (a 258-byte match in one ~2-bit code, RFC 1951 §3.2.5: 1032:1), which ZIP and PXR24
+/// chunks cannot exceed; RLE (at most 128 bytes from 2), B44 (fixed ratios) and PIZ (Huffman runs of
+/// at most 255 16-bit values in 9+ bits) stay far below it. A pixel is at least 6 bytes (three
+/// f16 channels), so `pixels ≤ EXR_MAX_RATIO × file size` holds for every readable file with a
+/// margin of 6.
+pub const EXR_MAX_RATIO: u64 = 1032;
 
 /// Reads an EXR's first RGB(A) layer as a band of the image its display window describes.
 ///
 /// # Errors
-/// An unreadable or malformed file, or a data window that is not whole rows of the display
-/// window, naming the file.
+/// As [`decode_exr`], or the file cannot be read (a directory or other non-regular file is
+/// refused as such).
 pub fn read_exr(path: &Path) -> Result<Band> {
-    if !path.is_file() {
-        return Err(Error::new(path, "no such file"));
+    decode_exr(path, &crate::files::read(path)?)
+}
+
+/// The pixels of the layer being read, and how many pixels of each of its rows were set: a
+/// chunk table that points two chunks at one (or leaves one out) sets some rows twice and others
+/// never, and must not pass as an image with black rows.
+struct Reading {
+    width: usize,
+    pixels: Vec<[f32; 3]>,
+    row_sets: Vec<u32>,
+}
+
+/// [`read_exr`] on the bytes of a file (`path` only names it in errors); what the `exr` fuzz
+/// target calls.
+///
+/// Memory is bounded by the input before anything is allocated: every layer's data window must
+/// hold at most [`MAX_PIXELS`] pixels and at most [`EXR_MAX_RATIO`] per byte of the file, and its
+/// chunk table (8 bytes a chunk) must fit in the file.
+///
+/// # Errors
+/// A malformed file, a layer past those bounds, a row its chunks do not set exactly once, or a
+/// data window that is not whole rows of the display window, naming the file.
+pub fn decode_exr(path: &Path, bytes: &[u8]) -> Result<Band> {
+    let bad = |e: exr::error::Error| Error::new(path, format!("not a readable RGB EXR: {e}"));
+    let meta = exr::meta::MetaData::read_from_buffered(bytes, false).map_err(bad)?;
+    let len = bytes.len() as u64;
+    let mut total = 0u64;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        let pixels = (size.0 as u64).saturating_mul(size.1 as u64);
+        total = total.saturating_add(pixels);
+        let msg = if total > MAX_PIXELS {
+            format!(
+                "its data window ({}x{}) holds more than {MAX_PIXELS} pixels, the limit of an image",
+                size.0, size.1
+            )
+        } else if total > EXR_MAX_RATIO.saturating_mul(len) || header.chunk_count as u64 > len / 8 {
+            format!(
+                "its data window ({}x{}) claims more pixels than a {len}-byte EXR can hold \
+                 (at most {EXR_MAX_RATIO} per byte, and 8 bytes of chunk table a chunk)",
+                size.0, size.1
+            )
+        } else {
+            continue;
+        };
+        return Err(Error::new(path, msg));
     }
-    let image = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |size, _| (size.0, vec![[0.0f32; 3]; size.0 * size.1]),
-        |(w, px): &mut (usize, Vec<[f32; 3]>), Vec2(x, y), (r, g, b, _a): (f32, f32, f32, f32)| {
-            px[y * *w + x] = [r, g, b];
-        },
-    )
-    .map_err(|e| Error::new(path, format!("not a readable RGB EXR: {e}")))?;
+    use exr::prelude::traits::*;
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |size: Vec2<usize>, _: &exr::prelude::RgbaChannels| Reading {
+                width: size.0,
+                pixels: vec![[0.0f32; 3]; size.0 * size.1],
+                row_sets: vec![0; size.1],
+            },
+            |r: &mut Reading, Vec2(x, y), (red, g, b, _a): (f32, f32, f32, f32)| {
+                r.pixels[y * r.width + x] = [red, g, b];
+                r.row_sets[y] = r.row_sets[y].saturating_add(1);
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(bad)?;
     let display = image.attributes.display_window;
     let layer = &image.layer_data;
     let (position, size) = (layer.attributes.layer_position, layer.size);
+    let reading = &layer.channel_data.pixels;
+    if let Some(row) = reading.row_sets.iter().position(|&n| n as usize != size.0) {
+        let msg = format!(
+            "row {} of its data window is stored {} times, not once (a broken chunk table?)",
+            i64::from(position.1) + row as i64,
+            reading.row_sets[row] as usize / size.0.max(1)
+        );
+        return Err(Error::new(path, msg));
+    }
     let whole_rows = display.position == Vec2(0, 0)
         && position.0 == 0
         && size.0 == display.size.0
@@ -157,11 +240,17 @@ pub fn read_exr(path: &Path) -> Result<Band> {
     let (Some(width), Some(height)) = (too_big(display.size.0), too_big(display.size.1)) else {
         return Err(Error::new(path, "image too large"));
     };
+    if u64::from(width) * u64::from(height) > MAX_PIXELS {
+        let msg = format!(
+            "its display window ({width}x{height}) holds more than {MAX_PIXELS} pixels, the limit of an image"
+        );
+        return Err(Error::new(path, msg));
+    }
     Ok(Band {
         width,
         height,
         first_row: position.1 as u32,
-        pixels: layer.channel_data.pixels.1.clone(),
+        pixels: image.layer_data.channel_data.pixels.pixels,
     })
 }
 
@@ -186,10 +275,9 @@ pub fn merge(parts: &[(&Path, Band)]) -> Result<Band> {
     }
     let mut sorted: Vec<&(&Path, Band)> = parts.iter().collect();
     sorted.sort_by_key(|(_, b)| b.first_row);
-    let mut pixels = Vec::with_capacity(w as usize * h as usize);
     let mut next_row = 0u32;
     let mut prev: Option<&Path> = None;
-    for (path, band) in sorted {
+    for (path, band) in &sorted {
         let rows = band.first_row..band.first_row + band.rows();
         if rows.start > next_row {
             let msg = format!(
@@ -206,7 +294,6 @@ pub fn merge(parts: &[(&Path, Band)]) -> Result<Band> {
             );
             return Err(Error::new(path, msg));
         }
-        pixels.extend_from_slice(&band.pixels);
         next_row = rows.end;
         prev = Some(path);
     }
@@ -215,6 +302,11 @@ pub fn merge(parts: &[(&Path, Band)]) -> Result<Band> {
             "rows {next_row}..{h} of the {w}x{h} image are in no part (a band is missing after this one)"
         );
         return Err(Error::new(prev.unwrap_or(first_path), msg));
+    }
+    // Allocated once the parts are known to cover the image exactly: their pixels, no more.
+    let mut pixels = Vec::with_capacity(w as usize * h as usize);
+    for (_, band) in &sorted {
+        pixels.extend_from_slice(&band.pixels);
     }
     Ok(Band {
         width: w,

@@ -8,6 +8,7 @@ pub mod files;
 pub mod geometry;
 pub mod input;
 pub mod load;
+pub mod memory;
 pub mod scene;
 
 pub use error::{Error, Result};

@@ -125,6 +125,22 @@ pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
     out
 }
 
+/// Writes `rays` as [`encode_rays`] encodes them, without a copy in memory (a set of 2²⁶ rays
+/// is 2 GiB).
+///
+/// # Errors
+/// `out`'s.
+pub fn write_rays(out: &mut impl std::io::Write, rays: &[Ray]) -> std::io::Result<()> {
+    for r in rays {
+        for v in [
+            r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax,
+        ] {
+            out.write_all(&v.to_le_bytes())?;
+        }
+    }
+    Ok(())
+}
+
 /// Encodes hits.
 pub fn encode_hits(hits: &[Hit]) -> Vec<u8> {
     let mut out = Vec::with_capacity(hits.len() * HIT_BYTES);

@@ -27,9 +27,8 @@ const ICOSPHERE_LEVELS: u32 = 4;
 /// Runs the report: prints the table, writes the CSV and the PNG.
 pub fn accuracy(args: &AccuracyArgs) -> Result<()> {
     let png = args.out.with_extension("png");
-    for path in [&args.out, &png] {
-        files::check_output(path)?;
-    }
+    // `-o a.png` would put the CSV and the plot in one file: refused as two outputs in one.
+    files::check_outputs(&[], &[&args.out, &png])?;
     let settings = Settings {
         rounds: args.rounds as usize,
         ..Settings::default()

@@ -94,6 +94,16 @@ pub fn build_words(
     layout: flat::Layout,
 ) -> Result<(Vec<u32>, f64)> {
     load::check_buildable(path, geom)?;
+    let prims = (geom.triangles.len() + geom.spheres.len()) as u64;
+    kdray::memory::ensure(
+        path,
+        prims * kdray::memory::BUILD_BYTES_PER_PRIM,
+        &format!("a build of {prims} primitives"),
+        &format!(
+            "a build takes about {} bytes a primitive",
+            kdray::memory::BUILD_BYTES_PER_PRIM
+        ),
+    )?;
     let progress = AtomicU64::new(0);
     let bar = ProgressBar::new(1000).with_message(format!("building {}", path.display()));
     bar.set_style(
@@ -142,10 +152,8 @@ pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)
 /// `description` (what a firmware or WASM target needs besides the tree: camera, settings,
 /// materials, lights; `kdray_core::description`). Both outputs are checked before the work.
 pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildArgs) -> Result<()> {
-    files::check_output(out)?;
-    if let Some(path) = description {
-        files::check_output(path)?;
-    }
+    let outputs: Vec<&Path> = core::iter::once(out).chain(description).collect();
+    files::check_outputs(&[input], &outputs)?;
     let file = match description {
         Some(_) => Some(kdray::scene::load_scene(input)?),
         None => None,
@@ -156,15 +164,21 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
     };
     let (words, build_ms) = build_words(input, &geom, &args.params(), args.layout)?;
     let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
-    flat::write_kdt(out, &words)?;
+    // Both outputs are made, then staged, before either is put in place: a description that
+    // fails leaves no tree behind, and the tree appears only with its description.
     let desc = match (&file, description) {
-        (Some(file), Some(path)) => {
-            let desc = kdray::description::encode(file, &words, DESCRIPTION_SEED)?;
-            flat::write_kdt(path, &desc)?;
-            Some((path, desc.len()))
-        }
+        (Some(file), Some(path)) => Some((
+            path,
+            kdray::description::encode(file, &words, DESCRIPTION_SEED)?,
+        )),
         _ => None,
     };
+    let mut staged = vec![flat::stage_kdt(out, &words)?];
+    if let Some((path, desc)) = &desc {
+        staged.push(flat::stage_kdt(path, desc)?);
+    }
+    files::commit_all(staged)?;
+    let desc = desc.map(|(path, d)| (path, d.len()));
     println!(
         "wrote {}: {} triangles, {} spheres, {} nodes, {} bytes, build_ms={build_ms:.1}",
         out.display(),

@@ -40,8 +40,8 @@ pub struct ConvergeArgs {
     /// Image size WxH (default: the scene's).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads (default: all cores; at most 16 per core).
+    #[arg(long, value_parser = super::parse_threads)]
     pub threads: Option<usize>,
     /// The first round's seed; round r uses seed + r, the reference seed + 1000.
     #[arg(long, default_value_t = 1)]
@@ -89,8 +89,8 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
         return Err(Error::new(&args.out, "the report must be a .csv file"));
     }
     let png = args.out.with_extension("png");
-    kdray::files::check_output(&args.out)?;
-    kdray::files::check_output(&png)?;
+    let inputs: Vec<&std::path::Path> = args.scene.iter().map(PathBuf::as_path).collect();
+    kdray::files::check_outputs(&inputs, &[&args.out, &png])?;
     let file = match &args.scene {
         Some(path) => kdray::scene::load_scene(path)?,
         None => converge::furnace_scene(),
@@ -102,6 +102,16 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
         return Err(Error::new(&file.path, "the image is too large"));
     }
     let pool = pool(&file.path, args.threads)?;
+    // A render and the reference image kept beside it.
+    kdray::memory::ensure(
+        &file.path,
+        u64::from(width) * u64::from(height) * 2 * super::render::RENDER_BYTES_PER_PIXEL,
+        &format!("a {width}x{height} convergence run"),
+        &format!(
+            "images up to {} pixels are accepted, memory permitting",
+            super::MAX_PIXELS
+        ),
+    )?;
     let settings = |seed: u64| Settings {
         width,
         height,

@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 /// Reads every part, checks that they tile the image exactly once, and writes the image.
 pub fn merge(parts: &[PathBuf], out: &Path) -> Result<()> {
     image::Format::of(out)?;
-    kdray::files::check_output(out)?;
+    let inputs: Vec<&Path> = parts.iter().map(PathBuf::as_path).collect();
+    kdray::files::check_outputs(&inputs, &[out])?;
     let bands = parts
         .iter()
         .map(|p| Ok((p.as_path(), image::read_exr(p)?)))

@@ -42,7 +42,7 @@ fn with_progress<T: Send>(
 }
 
 /// The most pixels an image (or a `kdray rays` set: 2²⁶ rays, 2 GiB) may have.
-pub(crate) const MAX_PIXELS: u64 = 1 << 26;
+pub(crate) use kdray::image::MAX_PIXELS;
 
 /// Parses `WxH`.
 pub fn parse_size(s: &str) -> core::result::Result<(u32, u32), String> {

@@ -21,6 +21,11 @@ use kdray_core::traverse::Mode;
 use kdray_core::words::Fnv1a;
 use std::path::{Path, PathBuf};
 
+/// What a render holds per pixel at its peak, with a margin: the film's sums (32 bytes) and
+/// sample count (4), the pass plan's counts (4) and, adaptive, the per-pixel deviations and
+/// weights (16), then the mean image (12) and its encoding (at most 12): 80, rounded up.
+pub(crate) const RENDER_BYTES_PER_PIXEL: u64 = 96;
+
 /// The most samples per pixel and surface hits per path a render accepts.
 pub(crate) const MAX_SPP: u32 = 1 << 20;
 const MAX_DEPTH: u32 = 1024;
@@ -44,8 +49,10 @@ pub struct RenderArgs {
     #[arg(long, value_parser = parse_positive)]
     pub noise: Option<f64>,
     /// After two even passes, spend every other pass's samples where the per-pixel variance is
-    /// (n ∝ σ) instead of evenly (README: ~10 % lower RMSE at equal time with glass).
-    #[arg(long)]
+    /// (n ∝ σ) instead of evenly (README: ~10 % lower RMSE at equal time with glass). Not with
+    /// --tile: each band would place its samples by its own variance, so the merged bands would
+    /// not be the whole render's image.
+    #[arg(long, conflicts_with = "tile")]
     pub adaptive: bool,
     /// Image size WxH (default: the scene's `[render] width, height`).
     #[arg(long, value_parser = parse_size)]
@@ -199,7 +206,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             "--tile writes a band of rows, which needs an .exr output",
         ));
     }
-    kdray::files::check_output(&args.out)?;
+    let inputs: Vec<&Path> = args.scene.iter().map(PathBuf::as_path).collect();
+    kdray::files::check_outputs(&inputs, &[&args.out])?;
     let prepared = Prepared::load(args.scene.as_deref())?;
     let file = &prepared.file;
     let settings = settings(file, args)?;
@@ -215,6 +223,13 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         Some((k, n)) => tile_rows(k, n, settings.height),
         None => 0..settings.height,
     };
+    let pixels = u64::from(settings.width) * rows.len() as u64;
+    kdray::memory::ensure(
+        &args.out,
+        pixels * RENDER_BYTES_PER_PIXEL,
+        &format!("a {}x{} render", settings.width, rows.len()),
+        &format!("images up to {MAX_PIXELS} pixels are accepted, memory permitting"),
+    )?;
     let timed = args.seconds.is_some() || args.noise.is_some();
     let plan = Plan {
         rows,

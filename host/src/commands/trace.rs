@@ -46,8 +46,8 @@ pub struct TraceArgs {
     /// (docs/ROBUSTNESS.md); slower than the default fast mode (README).
     #[arg(long)]
     pub watertight: bool,
-    /// Trace this many times and report the fastest.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Trace this many times and report the fastest (1 to 1000: a bound on the run time).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub repeat: u32,
     #[command(flatten)]
     pub build: BuildArgs,
@@ -106,7 +106,7 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
 }
 
 pub fn trace(args: &TraceArgs) -> Result<()> {
-    files::check_output(&args.out)?;
+    files::check_outputs(&[&args.input, &args.rays], &[&args.out])?;
     let rays = rays::read_rays(&args.rays)?;
     rays::check_rays(&args.rays, &rays)?;
     let (words, build_ms) = load_scene_words(&args.input, &args.build)?;
@@ -211,7 +211,7 @@ fn in_flight_count(in_flight: InFlight) -> u32 {
 }
 
 pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64) -> Result<()> {
-    files::check_output(out)?;
+    files::check_outputs(&[input], &[out])?;
     let (words, _) = load_scene_words(input, &BuildArgs::default())?;
     let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
     let [lo, hi] = scene.bounds();
@@ -222,6 +222,20 @@ pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64
         );
         Error::new(input, msg)
     })?;
+    // The rays (32 bytes each); for diffuse, their hits (16) and the bounced rays (32) too.
+    let per_ray: u64 = match kind {
+        RayKind::Primary => 32,
+        RayKind::Diffuse => 80,
+    };
+    kdray::memory::ensure(
+        out,
+        u64::from(size.0) * u64::from(size.1) * per_ray,
+        &format!("a {}x{} ray set", size.0, size.1),
+        &format!(
+            "sets up to {} rays are accepted, memory permitting",
+            super::MAX_PIXELS
+        ),
+    )?;
     let primary = rays::primary_rays(&camera, size.0, size.1);
     let set = match kind {
         RayKind::Primary => primary,
@@ -237,7 +251,7 @@ pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64
             rays::diffuse_rays(&scene, &primary, &hits, seed)
         }
     };
-    files::write_atomic(out, &rays::encode_rays(&set))?;
+    files::write_atomic_with(out, |w| rays::write_rays(w, &set))?;
     println!("wrote {}: {} rays", out.display(), set.len());
     Ok(())
 }

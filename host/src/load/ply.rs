@@ -206,6 +206,52 @@ struct Layout {
     max_face_len: u64,
 }
 
+/// Refuses an ASCII payload line holding more values than its element's properties take (e.g.
+/// `3 0 1 2 3`: a face of count 3 with four indices), which the parser reads past: the extra
+/// values are most likely a miscounted list, and the mesh would silently lose them. Each element
+/// is one line (the parser has read them all already, so every count parses); lines are counted
+/// from `first_line`, the payload's first.
+fn check_ascii_values(path: &Path, data: &[u8], header: &Header, first_line: usize) -> Result<()> {
+    let mut lines = data
+        .split(|&b| b == b'\n')
+        .skip(first_line - 1)
+        .zip(first_line..);
+    for (name, el) in &header.elements {
+        for item in 0..el.count {
+            let Some((line, number)) = lines.next() else {
+                return Ok(());
+            };
+            let text = String::from_utf8_lossy(line);
+            let mut tokens = text.split_ascii_whitespace();
+            for prop in el.properties.values() {
+                let count = match prop.data_type {
+                    PropertyType::Scalar(_) => 0,
+                    PropertyType::List(..) => tokens
+                        .next()
+                        .and_then(|t| t.parse::<usize>().ok())
+                        .unwrap_or(0),
+                };
+                let take = if matches!(prop.data_type, PropertyType::Scalar(_)) {
+                    1
+                } else {
+                    count
+                };
+                if tokens.by_ref().take(take).count() < take {
+                    return Ok(()); // the parser refuses short lines itself
+                }
+            }
+            let extra = tokens.count();
+            if extra > 0 {
+                let msg = format!(
+                    "{name} {item}: {extra} more value(s) than its properties take (a list count too small?)"
+                );
+                return Err(Error::at_line(path, number, msg));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Decodes PLY bytes (gzip-compressed when `gz`); `path` names the file in errors.
 pub(super) fn decode(path: &Path, bytes: &[u8], gz: bool) -> Result<Geometry> {
     if gz {
@@ -289,6 +335,9 @@ fn parse(path: &Path, data: &[u8]) -> Result<Geometry> {
             false => Error::new(path, msg),
         });
     }
+    if layout.ascii {
+        check_ascii_values(path, data, &header, layout.first_data_line)?;
+    }
     let at = |offset: usize, i: usize, msg: String| match layout.ascii {
         true => Error::at_line(path, layout.first_data_line + offset + i, msg),
         false => Error::new(path, msg),
@@ -312,6 +361,32 @@ fn parse(path: &Path, data: &[u8]) -> Result<Geometry> {
     let mut g = Geometry::default();
     let mut normals = Vec::new();
     let mut uvs = Vec::new();
+    // The fans' triangles, reserved at once and fallibly: faces of many corners make up to 35
+    // bytes of triangles per byte of payload (253 triangles from a 256-byte face of one-byte
+    // indices), so a small file may ask for more than there is, and must be refused, not abort.
+    let tris: u64 = faces
+        .iter()
+        .map(|f| f.indices.len().saturating_sub(2) as u64)
+        .sum();
+    let reserve = |n: u64, per: u64| -> Result<()> {
+        let bytes = n.saturating_mul(per);
+        crate::memory::ensure(
+            path,
+            bytes,
+            &format!("its {n} triangles (and their build)"),
+            &format!(
+                "a .ply.gz inflates to at most {} MiB, and a triangle takes about {} bytes to \
+                 hold and build",
+                MAX_INFLATED >> 20,
+                per
+            ),
+        )
+    };
+    let extra = 36 + if layout.normals { 36 } else { 0 } + if layout.uvs { 24 } else { 0 };
+    reserve(tris, extra + crate::memory::BUILD_BYTES_PER_PRIM)?;
+    g.triangles.reserve_exact(tris as usize);
+    normals.reserve_exact(if layout.normals { tris as usize } else { 0 });
+    uvs.reserve_exact(if layout.uvs { tris as usize } else { 0 });
     let mut corners = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         let n = face.indices.len();

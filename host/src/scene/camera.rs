@@ -277,6 +277,20 @@ impl CameraDesc {
                          thicker than 0 at the aperture's rim"
                     )
                 })?;
+                // A lens the checks above admit can still be beyond f32: an ior of 1e30 gives a
+                // focal length of 1e-31, which vanishes next to the lens's thickness when the
+                // sensor is placed, and the camera's own check then fails on the sensor. Blame the
+                // lens (ior first: the usual culprit), not the field of view or the focus.
+                let (h1, h2) = shape.principal_planes();
+                let f = shape.focal_length();
+                let size = r1.max(r2).max(l1 + l2);
+                if !(f.is_finite() && f.abs() > 1e-6 * size && h1.is_finite() && h2.is_finite()) {
+                    return Err(format!(
+                        "thick_lens: ior = {ior} (with r1 = {r1}, r2 = {r2}, l1 = {l1}, \
+                         l2 = {l2}) gives a focal length of {f:e}, beyond what f32 can place a \
+                         sensor for (it must be finite and more than 1e-6 of the lens's size)"
+                    ));
+                }
                 let cam = match focus {
                     Focus::Distance(d) => ThickLens::focused(frame, shape, d, vfov),
                     Focus::Sensor(s) => ThickLens::new(frame, shape, s, vfov),
@@ -287,9 +301,18 @@ impl CameraDesc {
                          the focus must lie farther than that in front of it",
                         shape.focal_length()
                     ),
-                    _ => "thick_lens: vfov must lie in (0, 180) and the sensor must lie behind \
-                          the lens (sensor > 0)"
-                        .to_string(),
+                    _ if !(vfov > 0.0 && vfov < 180.0) => {
+                        format!("thick_lens: vfov = {vfov} must lie in (0, 180)")
+                    }
+                    (_, Focus::Sensor(s)) => format!(
+                        "thick_lens: sensor = {s} must be finite, above 0 and behind the lens's \
+                         sensor-side principal plane"
+                    ),
+                    (_, Focus::Distance(d)) => format!(
+                        "thick_lens: focus = {d} puts the sensor in front of the lens (focal length \
+                         {:.4})",
+                        shape.focal_length()
+                    ),
                 })?)
             }
             Self::LensArray {
