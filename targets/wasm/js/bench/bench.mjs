@@ -46,8 +46,11 @@ function primaryRays(positions, side) {
   return out;
 }
 
+// A geometry of its own for each BVH: three-mesh-bvh reorders the index buffer in place.
 function geometryOf({ positions, indices }) {
   const g = new THREE.BufferGeometry();
+  positions = positions.slice();
+  indices = indices.slice();
   g.setAttribute('position', new THREE.BufferAttribute(positions, 3));
   g.setIndex(new THREE.BufferAttribute(indices, 1));
   return g;

@@ -18,9 +18,12 @@ let wasm = null; // the instance's exports once loaded
 let loading = null;
 let variant = null;
 
+let resultAt = 0; // kdj_result's address in f32s (a static: it never moves)
+
 function fromModule(module) {
   const instance = new WebAssembly.Instance(module, {});
   wasm = instance.exports;
+  resultAt = wasm.kdj_result() >>> 2;
   return wasm;
 }
 
@@ -187,8 +190,8 @@ export class Scene {
 
   #kd() {
     if (this.#handle === 0) throw new Error('kdray: the scene was disposed');
-    const kd = exportsOrThrow();
-    if (this.#f32 === null || this.#f32.buffer !== kd.memory.buffer) {
+    const kd = wasm ?? exportsOrThrow();
+    if (this.#f32 === null || this.#f32.byteLength === 0 || this.#f32.buffer !== kd.memory.buffer) {
       this.#f32 = new Float32Array(kd.memory.buffer);
       this.#u32 = new Uint32Array(kd.memory.buffer);
       this.#i32 = new Int32Array(kd.memory.buffer);
@@ -240,21 +243,27 @@ export class Scene {
    * triangle's 2nd and 3rd vertices), or null.
    */
   raycast(origin, direction, near = 0, far = Infinity) {
+    // The hot path of per-ray callers: no allocation but the answer, one call into the module
+    // (the ray as arguments), and the memory views checked only because a call that allocates
+    // may have replaced the buffer (this one never allocates).
     const kd = this.#kd();
-    const o = vec3(origin, 'origin');
-    const d = vec3(direction, 'direction');
-    const r = kd.kdj_raycast(this.#handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
+    let ox, oy, oz, dx, dy, dz;
+    if (origin?.length === 3) [ox, oy, oz] = [origin[0], origin[1], origin[2]];
+    else [ox, oy, oz] = vec3(origin, 'origin');
+    if (direction?.length === 3) [dx, dy, dz] = [direction[0], direction[1], direction[2]];
+    else [dx, dy, dz] = vec3(direction, 'direction');
+    const r = kd.kdj_raycast(this.#handle, this.#watertight ? 1 : 0, ox, oy, oz, dx, dy, dz, near, far);
     if (r <= 0) {
       if (r < 0) throw failure(kd, r, 'raycast');
       return null;
     }
-    const at = kd.kdj_result() >>> 2;
+    const at = resultAt;
     const f32 = this.#f32;
     const t = f32[at];
     return {
       distance: t,
       faceIndex: this.#u32[at + 1],
-      point: [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]],
+      point: [ox + t * dx, oy + t * dy, oz + t * dz],
       u: f32[at + 2],
       v: f32[at + 3],
     };

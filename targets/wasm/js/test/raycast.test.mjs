@@ -32,7 +32,8 @@ function compare(positions, indices, n, seed, options) {
   return async () => {
     const scene = await Scene.build(positions, indices, options);
     const mesh = threeMesh(positions, indices);
-    const bvh = new MeshBVH(mesh.geometry);
+    // three-mesh-bvh reorders the index it is given in place: its own copy.
+    const bvh = new MeshBVH(threeMesh(positions.slice(), indices?.slice()).geometry);
     const rs = rays(positions, n, seed);
     const raycaster = new THREE.Raycaster();
     let hits = 0;
