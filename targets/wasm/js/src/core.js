@@ -19,8 +19,15 @@ let loading = null;
 let variant = null;
 
 let resultAt = 0; // kdj_result's address in f32s (a static: it never moves)
+let compiled = null;
+
+/** The compiled module once loaded (for workers: a WebAssembly.Module can be posted to them). */
+export function compiledModule() {
+  return compiled;
+}
 
 function fromModule(module) {
+  compiled = module;
   const instance = new WebAssembly.Instance(module, {});
   wasm = instance.exports;
   resultAt = wasm.kdj_result() >>> 2;

@@ -3,7 +3,7 @@
 // WebAssembly.validate on a one-instruction SIMD probe (core.js). Those who stream the .wasm
 // files themselves import 'kdray/core' and call init() with their URLs.
 import { scalar, simd128 } from '../dist/inline.js';
-import { Scene, initWith, initSyncWith, setDefaultInit, setVariant, simdSupported, moduleVariant } from './core.js';
+import { Scene, initWith, initSyncWith, setDefaultInit, setVariant, simdSupported, moduleVariant, compiledModule } from './core.js';
 
 function bytes(b64) {
   if (typeof Buffer === 'function') return Buffer.from(b64, 'base64');
@@ -31,4 +31,4 @@ export function initSync() {
 
 setDefaultInit(init);
 
-export { Scene, simdSupported, moduleVariant };
+export { Scene, simdSupported, moduleVariant, compiledModule };

@@ -2,7 +2,7 @@
 // ('kdray/kdray_simd128.wasm', 'kdray/kdray_scalar.wasm') themselves:
 //   await init({ simd128: new URL('kdray/kdray_simd128.wasm', import.meta.url),
 //                scalar: new URL('kdray/kdray_scalar.wasm', import.meta.url) });
-import { Scene, initWith, setDefaultInit, simdSupported, moduleVariant } from './core.js';
+import { Scene, initWith, setDefaultInit, simdSupported, moduleVariant, compiledModule } from './core.js';
 
 /** Loads the module from `source` (see core.js initWith). */
 export function init(source) {
@@ -12,4 +12,4 @@ export function init(source) {
   return p;
 }
 
-export { Scene, simdSupported, moduleVariant };
+export { Scene, simdSupported, moduleVariant, compiledModule };
