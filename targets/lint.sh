@@ -47,6 +47,6 @@ variants=("mixed any-camera" "triangles pinhole" "spheres pinhole")
   cargo fmt --check
   CARGO_TARGET_DIR="$base/js/lint" \
     cargo clippy --quiet --release --target wasm32-unknown-unknown -- -D warnings
-  CARGO_TARGET_DIR="$base/js/lint-host" cargo clippy --quiet --all-targets -- -D warnings
+  CARGO_TARGET_DIR="$base/js/host" cargo clippy --quiet --all-targets -- -D warnings
 )
 echo "targets lint: ok"

@@ -11,7 +11,7 @@ here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../../.." && pwd)"
 cd "$here"
 bash build.sh >/dev/null
-CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}/js/host-tests" \
+CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}/js/host" \
   cargo test --quiet --locked --manifest-path module/Cargo.toml 2>&1 | grep -E "test result|FAILED|panicked" >&2
 if [[ ! -d node_modules || package-lock.json -nt node_modules ]]; then
   npm ci --no-audit --no-fund --loglevel=error
