@@ -3,6 +3,7 @@
 #   cortex-m4f      the firmware under QEMU (targets/cortex-m4f/run.sh)
 #   wasm-node       the WASM module under Node (targets/wasm/run.sh)
 #   wasm-chromium   the page in headless Chromium (targets/wasm/page.sh test)
+#   npm-kdray       the npm package: node --test suite, npm pack + install (targets/wasm/js/test.sh)
 # Prints one line per target with its checksum and whether it matches the host, and exits
 # non-zero if any target fails or does not match.
 #
@@ -82,6 +83,8 @@ run wasm-node bash targets/wasm/run.sh
 # The page with the size build run.sh has just made (the same code as the speed build the page
 # serves by default; saves two LTO builds).
 run wasm-chromium env KDRAY_PAGE_PROFILE=release bash targets/wasm/page.sh test
+# The npm package `kdray` (targets/wasm/js): its module, node --test suite and pack-and-install test.
+run npm-kdray bash targets/wasm/js/test.sh
 
 # The targets' crates are outside the workspace (.ci/run's fmt and clippy do not see them).
 step "targets' crates: fmt and clippy (targets/lint.sh)"

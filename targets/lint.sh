@@ -41,4 +41,12 @@ variants=("mixed any-camera" "triangles pinhole" "spheres pinhole")
     done
   done
 )
+(
+  # The npm package's module (builder + traversal): wasm32, and its unit tests on the host.
+  cd targets/wasm/js/module
+  cargo fmt --check
+  CARGO_TARGET_DIR="$base/js/lint" \
+    cargo clippy --quiet --release --target wasm32-unknown-unknown -- -D warnings
+  CARGO_TARGET_DIR="$base/js/host" cargo clippy --quiet --all-targets -- -D warnings
+)
 echo "targets lint: ok"

@@ -13,7 +13,8 @@ use std::path::Path;
 
 /// How the tree is stored: the node section alone, or also cut into cache-line blocks
 /// (`kdray_core::blocked`), which the single-ray queries then walk.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Layout {
     /// 8-byte nodes only (pbrt-v3's layout).
     #[default]

@@ -13,15 +13,20 @@ pub mod scene;
 
 pub use error::{Error, Result};
 pub use geometry::Geometry;
+#[cfg(feature = "cli")]
 pub mod accuracy;
 pub mod blocks;
 pub mod build;
 pub mod closed;
+#[cfg(feature = "cli")]
 pub mod converge;
 pub mod description;
 pub mod f64ref;
 pub mod flat;
+#[cfg(feature = "cli")]
 pub mod image;
+#[cfg(feature = "cli")]
 pub mod plot;
+#[cfg(feature = "cli")]
 pub mod progressive;
 pub mod rays;

@@ -34,7 +34,7 @@ pub struct BuildParams {
     /// [`DEEP_LEAF_PRIMS`] primitives may still split for [`DEEP_LEVELS`] more levels. Both are
     /// capped by the core's stack. An explicit limit is a hard one.
     pub max_depth: Option<u32>,
-    /// Build subtrees on the rayon pool.
+    /// Build subtrees on the rayon pool (with the `cli` feature; one thread without it).
     pub parallel: bool,
 }
 
@@ -305,16 +305,31 @@ fn build_node(
     let wa = weight - wb;
     let build_below = || build_node(ctx, below.0, below.1, below_box, depth + 1, bad_refines, wb);
     let build_above = || build_node(ctx, above.0, above.1, above_box, depth + 1, bad_refines, wa);
-    let children = if ctx.params.parallel && n >= PARALLEL_MIN {
-        rayon::join(build_below, build_above)
-    } else {
-        (build_below(), build_above())
-    };
+    let children = join(
+        ctx.params.parallel && n >= PARALLEL_MIN,
+        build_below,
+        build_above,
+    );
     BuildNode::Interior {
         axis: split.axis as u8,
         split: split.pos,
         children: Box::new([children.0, children.1]),
     }
+}
+
+/// Runs `a` and `b`, on the rayon pool when `parallel` (and the `cli` feature, which brings
+/// rayon, is on), else one after the other on this thread (the WASM build: one thread).
+fn join<A: Send, B: Send>(
+    parallel: bool,
+    a: impl FnOnce() -> A + Send,
+    b: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    #[cfg(feature = "cli")]
+    if parallel {
+        return rayon::join(a, b);
+    }
+    let _ = parallel;
+    (a(), b())
 }
 
 type Side = (Vec<u32>, [Vec<Event>; 3]);

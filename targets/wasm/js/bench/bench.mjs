@@ -1,0 +1,127 @@
+// kdray against three-mesh-bvh in Node, one thread, the same meshes and the same rays: build time
+// and raycasts per second of `raycast` (one call per ray, as three.js users cast), `raycastMany`
+// (one call for all rays) and three-mesh-bvh's `raycastFirst` (DoubleSide: kdray has no culling).
+//
+//   node bench/bench.mjs [--rounds N] [--rays N] [--meshes bunny,dragon]
+//
+// Meshes: the bunny (host/scenes/meshes/bunny.ply.gz, 3,674 triangles) and the full Stanford dragon
+// (data/dragon.ply, 871,414 triangles; `bash scripts/fetch-meshes.sh`, left out when absent).
+// Rays: `primary` — a 256×256 pinhole camera grid looking at the mesh from outside its box
+// (coherent, what mouse picking and visibility tests cast), and `random` — from random points on a
+// sphere around the box to random points inside it (incoherent). Directions are unit length.
+// Each measurement runs N rounds (default 5), alternating the engines within a round so that a
+// busy machine slows both alike; the table gives medians. three-mesh-bvh is built with its SAH
+// strategy (kdray builds an SAH kd-tree), and its default CENTER build is timed too.
+import { performance } from 'node:perf_hooks';
+import os from 'node:os';
+import * as THREE from 'three';
+import { MeshBVH, SAH, CENTER } from 'three-mesh-bvh';
+import { Scene, moduleVariant, init } from '../src/index.js';
+import { bunny, fetched, rays as randomRays } from '../test/meshes.mjs';
+
+const args = process.argv.slice(2);
+const opt = (name, dflt) => { const i = args.indexOf(`--${name}`); return i < 0 ? dflt : args[i + 1]; };
+const rounds = +opt('rounds', 5);
+const meshNames = opt('meshes', 'bunny,dragon').split(',');
+
+const median = (xs) => { const s = [...xs].sort((a, b) => a - b); return s.length % 2 ? s[(s.length - 1) / 2] : (s[s.length / 2 - 1] + s[s.length / 2]) / 2; };
+
+function primaryRays(positions, side) {
+  const min = [Infinity, Infinity, Infinity], max = [-Infinity, -Infinity, -Infinity];
+  for (let i = 0; i < positions.length; i += 3) for (let k = 0; k < 3; k++) { min[k] = Math.min(min[k], positions[i + k]); max[k] = Math.max(max[k], positions[i + k]); }
+  const c = [0, 1, 2].map((k) => (min[k] + max[k]) / 2);
+  const size = Math.max(...[0, 1, 2].map((k) => max[k] - min[k]));
+  const eye = [c[0] + 0.3 * size, c[1] + 0.2 * size, c[2] + 1.6 * size];
+  const fwd = c.map((x, k) => x - eye[k]); const fl = Math.hypot(...fwd); fwd.forEach((_, k) => { fwd[k] /= fl; });
+  const right = [fwd[2], 0, -fwd[0]]; const rl = Math.hypot(...right); right.forEach((_, k) => { right[k] /= rl; });
+  const up = [right[1] * fwd[2] - right[2] * fwd[1], right[2] * fwd[0] - right[0] * fwd[2], right[0] * fwd[1] - right[1] * fwd[0]];
+  const out = new Float32Array(8 * side * side);
+  const h = Math.tan(0.35);
+  for (let y = 0; y < side; y++) for (let x = 0; x < side; x++) {
+    const sx = ((x + 0.5) / side * 2 - 1) * h, sy = (1 - (y + 0.5) / side * 2) * h;
+    const d = [0, 1, 2].map((k) => fwd[k] + sx * right[k] + sy * up[k]);
+    const l = Math.hypot(...d);
+    out.set([...eye, d[0] / l, d[1] / l, d[2] / l, 0, Infinity], 8 * (y * side + x));
+  }
+  return out;
+}
+
+// A geometry of its own for each BVH: three-mesh-bvh reorders the index buffer in place.
+function geometryOf({ positions, indices }) {
+  const g = new THREE.BufferGeometry();
+  positions = positions.slice();
+  indices = indices.slice();
+  g.setAttribute('position', new THREE.BufferAttribute(positions, 3));
+  g.setIndex(new THREE.BufferAttribute(indices, 1));
+  return g;
+}
+
+await init();
+const rows = [];
+for (const name of meshNames) {
+  const mesh = name === 'bunny' ? bunny() : fetched(name);
+  if (!mesh) { console.error(`bench: leaving out ${name} (bash scripts/fetch-meshes.sh fetches it)`); continue; }
+  const tris = mesh.indices.length / 3;
+  // Build: alternating rounds (the dragon's builds take seconds: fewer rounds).
+  const buildRounds = tris > 100000 ? Math.min(rounds, 3) : rounds;
+  const tb = { kdray: [], sah: [], center: [] };
+  let scene = null, bvh = null;
+  for (let r = 0; r < buildRounds; r++) {
+    let t0 = performance.now();
+    const s = await Scene.build(mesh.positions, mesh.indices);
+    tb.kdray.push(performance.now() - t0);
+    if (scene) scene.dispose();
+    scene = s;
+    t0 = performance.now();
+    bvh = new MeshBVH(geometryOf(mesh), { strategy: SAH });
+    tb.sah.push(performance.now() - t0);
+    t0 = performance.now();
+    new MeshBVH(geometryOf(mesh), { strategy: CENTER });
+    tb.center.push(performance.now() - t0);
+  }
+  for (const [kind, rs] of [['primary', primaryRays(mesh.positions, 256)], ['random', randomRays(mesh.positions, 65536, 1)]]) {
+    const n = rs.length / 8;
+    const origins = [], dirs = [], threeRays = [];
+    for (let i = 0; i < n; i++) {
+      origins.push(rs.subarray(8 * i, 8 * i + 3));
+      dirs.push(rs.subarray(8 * i + 3, 8 * i + 6));
+      threeRays.push(new THREE.Ray(new THREE.Vector3(rs[8 * i], rs[8 * i + 1], rs[8 * i + 2]), new THREE.Vector3(rs[8 * i + 3], rs[8 * i + 4], rs[8 * i + 5])));
+    }
+    const hits = new Float32Array(4 * n);
+    const t = { single: [], many: [], peer: [] };
+    let agree = 0, hitCount = 0;
+    for (let r = 0; r < rounds; r++) {
+      let t0 = performance.now();
+      let k = 0;
+      for (let i = 0; i < n; i++) if (scene.raycast(origins[i], dirs[i]) !== null) k++;
+      t.single.push(performance.now() - t0);
+      t0 = performance.now();
+      scene.raycastMany(rs, hits);
+      t.many.push(performance.now() - t0);
+      t0 = performance.now();
+      let p = 0;
+      for (let i = 0; i < n; i++) if (bvh.raycastFirst(threeRays[i], THREE.DoubleSide)) p++;
+      t.peer.push(performance.now() - t0);
+      hitCount = k;
+      if (r === 0) {
+        // The same answers (hit or miss, and the distance), checked once outside the timing.
+        for (let i = 0; i < n; i++) {
+          const a = bvh.raycastFirst(threeRays[i], THREE.DoubleSide);
+          const d = hits[4 * i];
+          if ((a == null && d === Infinity) || (a && Math.abs(a.distance - d) <= 1e-5 * d)) agree++;
+        }
+      }
+    }
+    const mr = (ms) => n / (median(ms) * 1e3);
+    rows.push({ mesh: name, tris, kind, n, hitCount, agree, build: median(tb.kdray), sah: median(tb.sah), center: median(tb.center), single: mr(t.single), many: mr(t.many), peer: mr(t.peer) });
+  }
+  scene.dispose();
+}
+
+const cpu = os.cpus()[0]?.model ?? 'unknown CPU';
+console.log(`Node ${process.version}, ${cpu} (${os.cpus().length} cores, load ${os.loadavg().map((x) => x.toFixed(1)).join(' ')}), module ${moduleVariant()}, ${rounds} rounds, medians`);
+console.log('| mesh | rays | kdray build ms | three-mesh-bvh SAH build ms (CENTER) | build ratio | raycast Mrays/s | raycastMany Mrays/s | three-mesh-bvh raycastFirst Mrays/s | raycast × | raycastMany × | same answers |');
+console.log('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|');
+for (const r of rows) {
+  console.log(`| ${r.mesh} (${r.tris.toLocaleString('en')} tris) | ${r.kind}, ${r.n} (${r.hitCount} hit) | ${r.build.toFixed(1)} | ${r.sah.toFixed(1)} (${r.center.toFixed(1)}) | ${(r.build / r.sah).toFixed(2)} | ${r.single.toFixed(2)} | ${r.many.toFixed(2)} | ${r.peer.toFixed(2)} | ${(r.single / r.peer).toFixed(1)} | ${(r.many / r.peer).toFixed(1)} | ${r.agree}/${r.n} |`);
+}

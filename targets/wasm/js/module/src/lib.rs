@@ -1,0 +1,517 @@
+//! # kdray-js
+//!
+//! The WebAssembly module behind the npm package `kdray` (`targets/wasm/js/`): the host
+//! library's SAH builder (`kdray` without its `cli` feature: no threads, no images) and
+//! `kdray-core`'s traversal, behind plain exported functions that the package's hand-written ES
+//! module calls — no wasm-bindgen. Unlike the page's module (`targets/wasm/src`), this one has an
+//! allocator (std's, on wasm32 `dlmalloc`): building a tree allocates.
+//!
+//! Protocol (the package's `src/core.js`): JavaScript asks for a buffer with [`kdj_alloc`],
+//! writes positions/indices (or `.kdt` bytes) there, calls [`kdj_build`] (or [`kdj_load`]),
+//! which returns a scene handle (> 0) and takes ownership of nothing; queries name the handle.
+//! Every export returns an `i32`: ≥ 0 success (or a count), < 0 a failure whose text
+//! [`kdj_error`] gives. Pointers are checked against the live buffers from [`kdj_alloc`]; no
+//! input makes the module trap.
+//!
+//! Memory may grow on any call that allocates ([`kdj_alloc`], [`kdj_build`], [`kdj_load`],
+//! [`kdj_raycast_many`], [`kdj_intersect_all`]): JavaScript's views of `memory.buffer` must be
+//! made again after those.
+
+mod all;
+pub mod mesh;
+
+use core::cell::RefCell;
+use glam::Vec3;
+use kdray::flat::Layout;
+use kdray_core::format::contents;
+use kdray_core::stream::{self, Config};
+use kdray_core::traverse::Mode;
+use kdray_core::{Hit, Ray, Scene};
+use std::collections::BTreeMap;
+
+/// Failure codes (negative returns).
+const BAD_ARGUMENT: i32 = -1;
+const BAD_INPUT: i32 = -2;
+const NO_SCENE: i32 = -3;
+
+/// A scene and the words it views, which it owns: the words are leaked into a `&'static` slice
+/// so that the validated [`Scene`] can be kept (validation is a pass over every word, too slow per
+/// query), and taken back in `Drop`.
+struct Owned {
+    scene: Option<Scene<'static>>,
+    words: *mut [u32],
+}
+
+impl Owned {
+    fn new(words: Vec<u32>) -> Result<Self, String> {
+        let words: &'static mut [u32] = Box::leak(words.into_boxed_slice());
+        let ptr: *mut [u32] = words;
+        // SAFETY: `ptr` was just made from the leaked box and nothing else refers to it; the
+        // shared slice lives until `drop`, which first drops the scene that borrows it.
+        let shared: &'static [u32] = unsafe { &*ptr };
+        match Scene::from_words(shared) {
+            Ok(scene) => Ok(Self {
+                scene: Some(scene),
+                words: ptr,
+            }),
+            Err(e) => {
+                // SAFETY: the box leaked above; `shared` is not used again.
+                drop(unsafe { Box::from_raw(ptr) });
+                Err(e.to_string())
+            }
+        }
+    }
+
+    fn scene(&self) -> &Scene<'static> {
+        self.scene.as_ref().expect("set until drop")
+    }
+
+    fn words(&self) -> &[u32] {
+        // SAFETY: the box lives until `drop`; only shared views of it exist.
+        unsafe { &*self.words }
+    }
+}
+
+impl Drop for Owned {
+    fn drop(&mut self) {
+        // The scene (the only other view of the words) goes first.
+        self.scene = None;
+        // SAFETY: `words` came from `Box::leak` in `new` and is freed only here.
+        drop(unsafe { Box::from_raw(self.words) });
+    }
+}
+
+#[derive(Default)]
+struct State {
+    /// Live buffers from `kdj_alloc`: start → length in bytes.
+    buffers: BTreeMap<usize, usize>,
+    /// Scenes by handle − 1.
+    scenes: Vec<Option<Owned>>,
+    error: String,
+    /// One closest hit: t, input id (as bits), u, v — read by JavaScript at `kdj_result`.
+    result: [u32; 4],
+    /// Reused by the ray-stream calls.
+    rays: Vec<Ray>,
+    hits: Vec<Hit>,
+    scratch: Vec<u64>,
+    /// `intersectAll`'s hits, 5 words each (t, input id, u, v, facing), read at `kdj_all`.
+    all: Vec<all::AllHit>,
+    all_words: Vec<u32>,
+}
+
+thread_local! {
+    // wasm32 without the `atomics` feature has one thread: a plain global.
+    static STATE: RefCell<State> = RefCell::new(State::default());
+}
+
+fn with_state(f: impl FnOnce(&mut State) -> Result<i32, (i32, String)>) -> i32 {
+    STATE.with_borrow_mut(|state| match f(state) {
+        Ok(n) => n,
+        Err((code, msg)) => {
+            state.error = msg;
+            code
+        }
+    })
+}
+
+fn bad(msg: impl Into<String>) -> (i32, String) {
+    (BAD_INPUT, msg.into())
+}
+
+impl State {
+    /// `len` values of `T` at `ptr`, checked to lie in one live buffer and be aligned.
+    fn slice<T: Copy>(&self, ptr: u32, len: u32) -> Result<&'static [T], (i32, String)> {
+        let (start, len) = self.checked::<T>(ptr, len)?;
+        // SAFETY: [start, start + len·size) lies inside one live allocation of `kdj_alloc`
+        // (zeroed at allocation, and T is f32 or u32 — every bit pattern valid), aligned for T;
+        // the module never holds another reference into a buffer across calls.
+        Ok(unsafe { core::slice::from_raw_parts(start as *const T, len) })
+    }
+
+    fn slice_mut<T: Copy>(&self, ptr: u32, len: u32) -> Result<&'static mut [T], (i32, String)> {
+        let (start, len) = self.checked::<T>(ptr, len)?;
+        // SAFETY: as in `slice`; each export writes one buffer and checks it against its inputs
+        // (`disjoint`).
+        Ok(unsafe { core::slice::from_raw_parts_mut(start as *mut T, len) })
+    }
+
+    fn checked<T>(&self, ptr: u32, len: u32) -> Result<(usize, usize), (i32, String)> {
+        let start = ptr as usize;
+        let bytes = (len as usize)
+            .checked_mul(size_of::<T>())
+            .ok_or((BAD_ARGUMENT, "length overflows".to_string()))?;
+        let inside = self
+            .buffers
+            .range(..=start)
+            .next_back()
+            .is_some_and(|(&a, &n)| start + bytes <= a + n);
+        if !inside || !start.is_multiple_of(align_of::<T>()) {
+            return Err((
+                BAD_ARGUMENT,
+                format!("internal: a buffer at {ptr} of {bytes} bytes is not one the module gave"),
+            ));
+        }
+        Ok((start, len as usize))
+    }
+
+    fn scene(&self, handle: u32) -> Result<&Owned, (i32, String)> {
+        self.scenes
+            .get((handle as usize).wrapping_sub(1))
+            .and_then(Option::as_ref)
+            .ok_or((NO_SCENE, "the scene was disposed".to_string()))
+    }
+
+    /// Stores `words` (validated) as a new scene; returns its handle.
+    fn add(&mut self, words: Vec<u32>) -> Result<i32, (i32, String)> {
+        let owned = Owned::new(words).map_err(bad)?;
+        if owned.scene().contents() & contents::SPHERES != 0 {
+            return Err(bad(
+                "the scene holds spheres: this package traces triangle meshes only",
+            ));
+        }
+        let slot = match self.scenes.iter().position(Option::is_none) {
+            Some(i) => i,
+            None => {
+                self.scenes.push(None);
+                self.scenes.len() - 1
+            }
+        };
+        self.scenes[slot] = Some(owned);
+        Ok(slot as i32 + 1)
+    }
+}
+
+fn disjoint<A, B>(a: &[A], b: &[B]) -> Result<(), (i32, String)> {
+    let (a0, a1) = (a.as_ptr() as usize, a.as_ptr() as usize + size_of_val(a));
+    let (b0, b1) = (b.as_ptr() as usize, b.as_ptr() as usize + size_of_val(b));
+    if a1 <= b0 || b1 <= a0 {
+        Ok(())
+    } else {
+        Err((BAD_ARGUMENT, "internal: output overlaps input".to_string()))
+    }
+}
+
+const ALIGN: usize = 16;
+
+/// A zeroed buffer of `bytes` bytes (16-byte aligned); 0 when memory cannot grow that far.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_alloc(bytes: u32) -> u32 {
+    let Ok(layout) = std::alloc::Layout::from_size_align((bytes as usize).max(1), ALIGN) else {
+        return 0;
+    };
+    // SAFETY: the layout's size is > 0.
+    let p = unsafe { std::alloc::alloc_zeroed(layout) };
+    if p.is_null() {
+        return 0;
+    }
+    STATE.with_borrow_mut(|s| s.buffers.insert(p as usize, layout.size()));
+    p as u32
+}
+
+/// Frees a buffer from [`kdj_alloc`] (anything else is ignored).
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_free(ptr: u32) {
+    if let Some(size) = STATE.with_borrow_mut(|s| s.buffers.remove(&(ptr as usize))) {
+        let layout = std::alloc::Layout::from_size_align(size, ALIGN).expect("as allocated");
+        // SAFETY: allocated by `kdj_alloc` with this layout, and removed from the live list.
+        unsafe { std::alloc::dealloc(ptr as *mut u8, layout) };
+    }
+}
+
+/// Builds a scene from `n_pos` floats of positions at `pos_ptr` and `n_idx` indices at `idx_ptr`
+/// (`idx_ptr = 0`: no indices, every 9 floats a triangle); `layout`: 0 nodes, 1 with cache-line
+/// blocks. Returns the scene's handle (> 0) or a failure.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_build(
+    pos_ptr: u32,
+    n_pos: u32,
+    idx_ptr: u32,
+    n_idx: u32,
+    layout: u32,
+) -> i32 {
+    with_state(|s| {
+        let positions = if n_pos == 0 {
+            &[][..]
+        } else {
+            s.slice::<f32>(pos_ptr, n_pos)?
+        };
+        let indices = match (idx_ptr, n_idx) {
+            (0, _) => None,
+            (_, 0) => Some(&[][..]),
+            _ => Some(s.slice::<u32>(idx_ptr, n_idx)?),
+        };
+        let layout = match layout {
+            0 => Layout::Nodes,
+            1 => Layout::Blocked,
+            _ => return Err((BAD_ARGUMENT, "layout must be 0 or 1".into())),
+        };
+        let tris = mesh::triangles(positions, indices).map_err(bad)?;
+        let words = mesh::build_words(tris, layout).map_err(bad)?;
+        s.add(words)
+    })
+}
+
+/// Loads a scene from `n_bytes` bytes of a `.kdt` at `ptr` (copied). Returns its handle.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_load(ptr: u32, n_bytes: u32) -> i32 {
+    with_state(|s| {
+        let bytes = s.slice::<u8>(ptr, n_bytes)?;
+        if !bytes.len().is_multiple_of(4) {
+            return Err(bad(format!(
+                "{} bytes: a .kdt is a whole number of 4-byte words (truncated?)",
+                bytes.len()
+            )));
+        }
+        let words: Vec<u32> = bytes
+            .chunks_exact(4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+            .collect();
+        s.add(words)
+    })
+}
+
+/// Forgets a scene.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_drop(handle: u32) {
+    STATE.with_borrow_mut(|s| {
+        if let Some(slot) = s.scenes.get_mut((handle as usize).wrapping_sub(1)) {
+            *slot = None;
+        }
+    });
+}
+
+/// The address of a scene's words (little-endian u32, the `.kdt` bytes); their count is
+/// [`kdj_word_count`].
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_words(handle: u32) -> i32 {
+    with_state(|s| Ok(s.scene(handle)?.words().as_ptr() as i32))
+}
+
+/// The number of words of a scene.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_word_count(handle: u32) -> i32 {
+    with_state(|s| Ok(s.scene(handle)?.words().len() as i32))
+}
+
+/// Writes 10 words about a scene at `out_ptr`: triangles, nodes, depth, then the bounds'
+/// min and max (6 f32 bits), and 1 if this build uses simd128.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_info(handle: u32, out_ptr: u32) -> i32 {
+    with_state(|s| {
+        let out = s.slice_mut::<u32>(out_ptr, 10)?;
+        let scene = s.scene(handle)?.scene();
+        let [lo, hi] = scene.bounds();
+        out.copy_from_slice(&[
+            scene.tri_count(),
+            scene.node_count(),
+            scene.depth(),
+            lo.x.to_bits(),
+            lo.y.to_bits(),
+            lo.z.to_bits(),
+            hi.x.to_bits(),
+            hi.y.to_bits(),
+            hi.z.to_bits(),
+            u32::from(cfg!(target_feature = "simd128")),
+        ]);
+        Ok(0)
+    })
+}
+
+fn mode(watertight: u32) -> Mode {
+    if watertight != 0 {
+        Mode::Watertight
+    } else {
+        Mode::Fast
+    }
+}
+
+/// The address of the last [`kdj_raycast`] result: f32 t, u32 triangle (input order), f32 u,
+/// f32 v.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_result() -> i32 {
+    STATE.with_borrow(|s| s.result.as_ptr() as i32)
+}
+
+/// The closest hit of one ray in `(tmin, tmax)`: 1 (written at [`kdj_result`]), 0 for a miss.
+/// The ray's numbers are arguments, so a call copies nothing through memory.
+#[unsafe(no_mangle)]
+#[allow(clippy::too_many_arguments)]
+pub extern "C" fn kdj_raycast(
+    handle: u32,
+    watertight: u32,
+    ox: f32,
+    oy: f32,
+    oz: f32,
+    dx: f32,
+    dy: f32,
+    dz: f32,
+    tmin: f32,
+    tmax: f32,
+) -> i32 {
+    with_state(|s| {
+        let scene = s.scene(handle)?.scene();
+        let ray = Ray {
+            origin: Vec3::new(ox, oy, oz),
+            dir: Vec3::new(dx, dy, dz),
+            tmin,
+            tmax,
+        };
+        let hit = scene.intersect_in(mode(watertight), &ray);
+        if !hit.is_hit() {
+            return Ok(0);
+        }
+        let id = scene.input_id(hit.prim);
+        s.result = [hit.t.to_bits(), id, hit.u.to_bits(), hit.v.to_bits()];
+        Ok(1)
+    })
+}
+
+/// Whether anything lies along the ray in `(tmin, tmax)`: 1 or 0.
+#[unsafe(no_mangle)]
+#[allow(clippy::too_many_arguments)]
+pub extern "C" fn kdj_occluded(
+    handle: u32,
+    watertight: u32,
+    ox: f32,
+    oy: f32,
+    oz: f32,
+    dx: f32,
+    dy: f32,
+    dz: f32,
+    tmin: f32,
+    tmax: f32,
+) -> i32 {
+    with_state(|s| {
+        let scene = s.scene(handle)?.scene();
+        let ray = Ray {
+            origin: Vec3::new(ox, oy, oz),
+            dir: Vec3::new(dx, dy, dz),
+            tmin,
+            tmax,
+        };
+        Ok(i32::from(scene.occluded_in(mode(watertight), &ray)))
+    })
+}
+
+/// Closest hits of `n` rays at `rays_ptr` (8 f32 each: origin, direction, tmin, tmax — the
+/// rays-file layout) through the core's ray stream, into `hits_ptr` (4 words each: f32 t, u32
+/// triangle in input order, f32 u, f32 v; a miss is t = +inf, triangle 0xFFFFFFFF — the
+/// hits-file layout). Returns the number of hits.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_raycast_many(
+    handle: u32,
+    watertight: u32,
+    rays_ptr: u32,
+    n: u32,
+    hits_ptr: u32,
+) -> i32 {
+    with_state(|s| {
+        let input = s.slice::<[f32; 8]>(rays_ptr, n)?;
+        let out = s.slice_mut::<[u32; 4]>(hits_ptr, n)?;
+        disjoint(input, out)?;
+        let mut rays = core::mem::take(&mut s.rays);
+        let mut hits = core::mem::take(&mut s.hits);
+        let mut scratch = core::mem::take(&mut s.scratch);
+        rays.clear();
+        rays.extend(input.iter().map(|w| Ray {
+            origin: Vec3::new(w[0], w[1], w[2]),
+            dir: Vec3::new(w[3], w[4], w[5]),
+            tmin: w[6],
+            tmax: w[7],
+        }));
+        hits.clear();
+        hits.resize(rays.len(), Hit::MISS);
+        scratch.resize(stream::scratch_words(rays.len()), 0);
+        let result = (|| {
+            let scene = s.scene(handle)?.scene();
+            let config = Config {
+                mode: mode(watertight),
+                ..Config::default()
+            };
+            stream::intersect(scene, &config, &rays, &mut hits, &mut scratch)
+                .map_err(|e| (BAD_ARGUMENT, format!("internal: {e}")))?;
+            let mut count = 0;
+            for (h, w) in hits.iter().zip(out.iter_mut()) {
+                count += i32::from(h.is_hit());
+                let id = if h.is_hit() {
+                    scene.input_id(h.prim)
+                } else {
+                    u32::MAX
+                };
+                *w = [h.t.to_bits(), id, h.u.to_bits(), h.v.to_bits()];
+            }
+            Ok(count)
+        })();
+        (s.rays, s.hits, s.scratch) = (rays, hits, scratch);
+        result
+    })
+}
+
+/// Every hit of one ray in `(tmin, tmax)`, sorted by t (`all.rs`: in watertight mode exact on
+/// shared edges and vertices, so the count's parity is inside/outside for a closed mesh).
+/// Returns the count; the hits are at [`kdj_all`], 5 words each: f32 t, u32 triangle (input
+/// order), f32 u, f32 v, i32 facing (+1: the triangle's front faces the ray's origin).
+#[unsafe(no_mangle)]
+#[allow(clippy::too_many_arguments)]
+pub extern "C" fn kdj_intersect_all(
+    handle: u32,
+    watertight: u32,
+    ox: f32,
+    oy: f32,
+    oz: f32,
+    dx: f32,
+    dy: f32,
+    dz: f32,
+    tmin: f32,
+    tmax: f32,
+) -> i32 {
+    with_state(|s| {
+        let ray = Ray {
+            origin: Vec3::new(ox, oy, oz),
+            dir: Vec3::new(dx, dy, dz),
+            tmin,
+            tmax,
+        };
+        let mut found = core::mem::take(&mut s.all);
+        let mut words = core::mem::take(&mut s.all_words);
+        let scene = s.scene(handle)?.scene();
+        all::all_hits(scene, &ray, watertight != 0, &mut found);
+        words.clear();
+        for h in &found {
+            words.extend_from_slice(&[
+                h.t.to_bits(),
+                scene.input_id(h.prim),
+                h.u.to_bits(),
+                h.v.to_bits(),
+                h.facing as u32,
+            ]);
+        }
+        let n = found.len() as i32;
+        (s.all, s.all_words) = (found, words);
+        Ok(n)
+    })
+}
+
+/// The address of [`kdj_intersect_all`]'s hits.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_all() -> i32 {
+    STATE.with_borrow(|s| s.all_words.as_ptr() as i32)
+}
+
+/// Copies the last failure's text (UTF-8) to `dst_ptr`, at most `cap` bytes; returns the
+/// number copied.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_error(dst_ptr: u32, cap: u32) -> i32 {
+    with_state(|s| {
+        let n = s.error.len().min(cap as usize);
+        let dst = s.slice_mut::<u8>(dst_ptr, n as u32)?;
+        dst.copy_from_slice(&s.error.as_bytes()[..n]);
+        Ok(n as i32)
+    })
+}
+
+/// The length in bytes of the last failure's text.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_error_len() -> i32 {
+    STATE.with_borrow(|s| s.error.len() as i32)
+}

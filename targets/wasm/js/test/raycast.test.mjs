@@ -1,0 +1,125 @@
+// raycast against three.js's own brute-force Mesh.raycast and three-mesh-bvh, on seeded random
+// triangle soups and the bunny; raycastMany against raycast.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import * as THREE from 'three';
+import { MeshBVH } from 'three-mesh-bvh';
+import { Scene } from '../src/index.js';
+import { bunny, soup, rays } from './meshes.mjs';
+
+function threeMesh(positions, indices) {
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(positions, 3));
+  if (indices) g.setIndex(new THREE.BufferAttribute(indices, 1));
+  return new THREE.Mesh(g, new THREE.MeshBasicMaterial({ side: THREE.DoubleSide }));
+}
+
+// First hit: the same face, or the same distance within 1e-5 relative (two triangles the ray
+// meets at one point, where f32 and f64 arithmetic may choose differently); a miss is a miss.
+function agree(a, b, what) {
+  if (a === null || b === null) {
+    assert.equal(a === null, b === null, `${what}: one hit (${JSON.stringify(a ?? b)}), the other missed`);
+    return;
+  }
+  if (a.faceIndex === b.faceIndex) {
+    assert.ok(Math.abs(a.distance - b.distance) <= 1e-5 * b.distance, `${what}: face ${a.faceIndex} at ${a.distance} vs ${b.distance}`);
+  } else {
+    assert.ok(Math.abs(a.distance - b.distance) <= 1e-5 * b.distance, `${what}: face ${a.faceIndex} at ${a.distance} vs face ${b.faceIndex} at ${b.distance}`);
+  }
+}
+
+function compare(positions, indices, n, seed, options) {
+  return async () => {
+    const scene = await Scene.build(positions, indices, options);
+    const mesh = threeMesh(positions, indices);
+    // three-mesh-bvh reorders the index it is given in place: its own copy.
+    const bvh = new MeshBVH(threeMesh(positions.slice(), indices?.slice()).geometry);
+    const rs = rays(positions, n, seed);
+    const raycaster = new THREE.Raycaster();
+    let hits = 0;
+    for (let i = 0; i < n; i++) {
+      const r = rs.subarray(8 * i, 8 * i + 8);
+      const ours = scene.raycast(r.subarray(0, 3), r.subarray(3, 6));
+      raycaster.set(new THREE.Vector3(r[0], r[1], r[2]), new THREE.Vector3(r[3], r[4], r[5]));
+      const brute = raycaster.intersectObject(mesh, false)[0] ?? null;
+      agree(ours, brute, `ray ${i} against Mesh.raycast`);
+      const peer = bvh.raycastFirst(raycaster.ray, THREE.DoubleSide) ?? null;
+      agree(ours, peer, `ray ${i} against three-mesh-bvh`);
+      if (ours) {
+        hits++;
+        // The point and barycentrics describe the same place.
+        assert.ok(Math.abs(ours.point[0] - brute.point.x) <= 1e-4 * (1 + Math.abs(brute.point.x)));
+      }
+    }
+    assert.ok(hits > n / 4, `only ${hits} of ${n} rays hit: the rays miss the mesh`);
+    scene.dispose();
+  };
+}
+
+test('random soup, non-indexed, agrees with Mesh.raycast and three-mesh-bvh', compare(soup(400, 1), undefined, 1500, 2));
+test('random soup, watertight mode', compare(soup(400, 3), undefined, 1500, 4, { watertight: true }));
+test('random soup, cache-line blocks', compare(soup(2000, 5, 0.05), undefined, 1500, 6, { layout: 'blocked' }));
+test('bunny, indexed', compare(bunny().positions, bunny().indices, 3000, 7));
+test('bunny, watertight', compare(bunny().positions, bunny().indices, 1500, 8, { watertight: true }));
+
+test('raycastMany equals raycast, ray by ray', async () => {
+  const { positions, indices } = bunny();
+  for (const watertight of [false, true]) {
+    const scene = await Scene.build(positions, indices, { watertight });
+    const n = 5000;
+    const rs = rays(positions, n, 9);
+    // Some rays with a near/far window and some from inside the box.
+    for (let i = 0; i < n; i += 7) { rs[8 * i + 6] = 1; rs[8 * i + 7] = 20; }
+    const hits = new Float32Array(4 * n);
+    assert.equal(scene.raycastMany(rs, hits), hits);
+    const face = new Uint32Array(hits.buffer);
+    let hit = 0;
+    for (let i = 0; i < n; i++) {
+      const r = rs.subarray(8 * i, 8 * i + 8);
+      const one = scene.raycast(r.subarray(0, 3), r.subarray(3, 6), r[6], r[7]);
+      if (one === null) {
+        assert.equal(hits[4 * i], Infinity, `ray ${i}`);
+        assert.equal(face[4 * i + 1], 0xffffffff, `ray ${i}`);
+      } else {
+        hit++;
+        assert.equal(hits[4 * i], Math.fround(one.distance), `ray ${i}: t`);
+        // Two triangles at exactly that t: a packet may report either (the core's stream).
+        if (face[4 * i + 1] === one.faceIndex) {
+          assert.equal(hits[4 * i + 2], one.u, `ray ${i}: u`);
+          assert.equal(hits[4 * i + 3], one.v, `ray ${i}: v`);
+        }
+      }
+    }
+    assert.ok(hit > n / 4);
+    // Again into the same buffer: the same answers; a returned array when none is passed.
+    const again = scene.raycastMany(rs);
+    assert.deepEqual(again, hits);
+    scene.dispose();
+  }
+});
+
+test('occluded agrees with raycast', async () => {
+  const { positions, indices } = bunny();
+  const scene = await Scene.build(positions, indices);
+  const rs = rays(positions, 2000, 10);
+  for (let i = 0; i < 2000; i++) {
+    const r = rs.subarray(8 * i, 8 * i + 8);
+    const hit = scene.raycast(r.subarray(0, 3), r.subarray(3, 6));
+    assert.equal(scene.occluded(r.subarray(0, 3), r.subarray(3, 6)), hit !== null, `ray ${i}`);
+    if (hit) {
+      // Short of the hit: nothing in the way (the closest hit is the first thing on the ray).
+      assert.equal(scene.occluded(r.subarray(0, 3), r.subarray(3, 6), 0, hit.distance * 0.999), false, `ray ${i} short`);
+    }
+  }
+});
+
+test('toBytes and fromBytes round-trip', async () => {
+  const { positions, indices } = bunny();
+  const a = await Scene.build(positions, indices);
+  const bytes = a.toBytes();
+  const b = await Scene.fromBytes(bytes);
+  assert.deepEqual(b.toBytes(), bytes);
+  const rs = rays(positions, 500, 11);
+  assert.deepEqual(b.raycastMany(rs), a.raycastMany(rs));
+  assert.equal(a.info.triangles, 3674);
+});

@@ -1,0 +1,79 @@
+/** A 3-vector: [x, y, z] (any array-like) or three.js's Vector3. */
+export type Vec3Like = ArrayLike<number> | { x: number; y: number; z: number };
+
+export interface SceneOptions {
+  /**
+   * Watertight mode: Woop, Benthin & Wald's watertight triangle test and a conservative walk,
+   * so no ray slips between triangles sharing an edge; intersectAll/crossings are exact on shared
+   * edges and vertices. A little slower than the default (Möller–Trumbore).
+   */
+  watertight?: boolean;
+  /** 'blocked' also stores the tree in cache-line blocks (faster single rays, ~5 % larger). */
+  layout?: 'nodes' | 'blocked';
+}
+
+export interface Hit {
+  /** t along the ray: origin + distance·direction is the point (a distance for a unit direction). */
+  distance: number;
+  /** The triangle: its index in the input (indices / 3, or positions / 9 without indices). */
+  faceIndex: number;
+  point: [number, number, number];
+  /** Barycentric weights of the triangle's second and third vertices. */
+  u: number;
+  v: number;
+}
+
+export interface AllHit extends Hit {
+  /** +1 where the triangle's front (counter-clockwise) side faces the ray's origin, else −1. */
+  facing: 1 | -1;
+}
+
+export interface SceneInfo {
+  triangles: number;
+  nodes: number;
+  depth: number;
+  bounds: { min: [number, number, number]; max: [number, number, number] };
+  simd128: boolean;
+}
+
+export declare class Scene {
+  /** Builds the SAH kd-tree of a mesh: positions 3 floats a vertex; without indices every 9 floats are a triangle. */
+  static build(positions: Float32Array, indices?: Uint32Array | Uint16Array | null, options?: SceneOptions): Promise<Scene>;
+  static build(positions: Float32Array, options?: SceneOptions): Promise<Scene>;
+  /** Scene.build once the module is loaded (`await init()`). */
+  static buildSync(positions: Float32Array, indices?: Uint32Array | Uint16Array | null, options?: SceneOptions): Scene;
+  /** A scene from a .kdt's bytes (`kdray build`, or `scene.toBytes()`). */
+  static fromBytes(bytes: Uint8Array | ArrayBuffer, options?: SceneOptions): Promise<Scene>;
+  static fromBytesSync(bytes: Uint8Array | ArrayBuffer, options?: SceneOptions): Scene;
+  /** The .kdt bytes (a copy). */
+  toBytes(): Uint8Array;
+  /** Frees the tree; the scene cannot be used afterwards. */
+  dispose(): void;
+  readonly watertight: boolean;
+  readonly info: SceneInfo;
+  /** The closest hit with near < t < far, or null. */
+  raycast(origin: Vec3Like, direction: Vec3Like, near?: number, far?: number): Hit | null;
+  /** Whether anything lies along the ray with near < t < far. */
+  occluded(origin: Vec3Like, direction: Vec3Like, near?: number, far?: number): boolean;
+  /**
+   * Closest hits of many rays: `rays` 8 floats a ray (ox, oy, oz, dx, dy, dz, near, far);
+   * returns 4 floats a ray (t, face index as u32 bits, u, v; a miss is t = Infinity, face
+   * 0xFFFFFFFF), into `hits` when given (no allocation per call for the same hits and count).
+   */
+  raycastMany(rays: Float32Array, hits?: Float32Array): Float32Array;
+  /** Every hit along the ray, nearest first. */
+  intersectAll(origin: Vec3Like, direction: Vec3Like, near?: number, far?: number): AllHit[];
+  /** The number of hits intersectAll would return. */
+  crossings(origin: Vec3Like, direction: Vec3Like, near?: number, far?: number): number;
+  /** Whether a point is inside the closed mesh (parity of a watertight ray's crossings). */
+  contains(point: Vec3Like): boolean;
+}
+
+/** Whether this engine runs WebAssembly SIMD. */
+export declare function simdSupported(): boolean;
+/** 'simd128' or 'scalar' once loaded, else null. */
+export declare function moduleVariant(): string | null;
+
+type Source = WebAssembly.Module | BufferSource | Response | PromiseLike<Response> | string | URL;
+/** kdray/core only: loads the module from a URL, bytes or a Response ({ simd128, scalar }: the one this engine runs). */
+export declare function init(source: Source | { simd128: Source; scalar: Source }): Promise<void>;
