@@ -7,7 +7,6 @@
 #   scripts/doc-commands.sh --with minutes   # also those marked `needs: minutes` (comma-separated
 #                                            # list; `--with all` runs every command)
 #   scripts/doc-commands.sh --list           # print the commands and whether each would run
-#   scripts/doc-commands.sh --keep           # keep the scratch copy (its path is printed)
 #
 # A command is one shell statement: lines are joined until `bash -n` accepts them (a `for` loop,
 # a `\` continuation). Comment lines are not run. A command whose comment says `needs: WHAT`
@@ -20,22 +19,21 @@
 # The commands run one by one, each in a `set -e` subshell (a bare assignment such as `K=...`
 # carries on to the next commands), in a scratch copy of the repository's files (tracked and new, not ignored
 # ones) whose `target/` is a link to this repository's, so nothing the docs write (render.png,
-# docs/*.png, part-*.exr) lands in the working tree. `cargo install --path host` installs into
+# docs/*.png, part-*.exr) lands in the working tree. `cargo install --locked --path host` installs into
 # the scratch copy's `.cargo/bin`, which is first on the PATH: your ~/.cargo is not touched.
+# The scratch copy (target/doc-commands, or $KDRAY_DOC_SCRATCH) is left for a look afterwards.
 # Stops at the first command that fails, naming its file and line; exit 1.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 with=""
 list=0
-keep=0
 while [ $# -gt 0 ]; do
     case $1 in
         --with) with=${2:?--with needs a list, e.g. minutes,big meshes}; shift 2 ;;
         --with=*) with=${1#--with=}; shift ;;
         --list) list=1; shift ;;
-        --keep) keep=1; shift ;;
-        -h|--help) sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "doc-commands: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -106,15 +104,12 @@ if [ "$list" = 1 ]; then
     exit 0
 fi
 
-scratch=$(mktemp -d "${TMPDIR:-/tmp}/kdray-doc-commands.XXXXXX")
-cleanup() {
-    if [ "$keep" = 1 ]; then
-        echo "doc-commands: kept $scratch"
-    else
-        rm -rf "$scratch"
-    fi
-}
-trap cleanup EXIT
+# The scratch copy sits at a fixed place inside target/ (ignored by git), emptied first: cargo
+# keys its build of a path crate on the crate's path, so a fixed path (and the files' times,
+# which tar keeps) lets a second run reuse the first one's release build instead of redoing it.
+scratch=${KDRAY_DOC_SCRATCH:-$root/target/doc-commands}
+rm -rf "$scratch"
+mkdir -p "$scratch"
 # The repository's files as they are now (committed or not), without ignored ones (target/,
 # data/, node_modules/) ...
 git ls-files -z --cached --others --exclude-standard |

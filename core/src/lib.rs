@@ -7,7 +7,7 @@
 //!
 //! ## Getting started
 //! This crate traces; it does not build trees. Trees come from the host crate, [`kdray`]: the
-//! `kdray build MESH -o FILE.kdt` command (`cargo install --path host` in the repository), or in
+//! `kdray build MESH -o FILE.kdt` command (`cargo install --locked --path host` in the repository), or in
 //! Rust `kdray::build::build` and `kdray::flat::serialize`, which give the same `Vec<u32>`. Hand
 //! the words to [`Scene::from_words`], which checks them once, then trace:
 //!
