@@ -65,7 +65,7 @@ fn a_missing_benchmark_mesh_names_the_script_that_fetches_it() {
     let scene = d.join("needs_data.toml");
     std::fs::write(
         &scene,
-        "[[mesh]]\npath = \"data/not-fetched-yet.ply\"\n\n[[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n",
+        format!("{SMALL_SCENE}\n[[mesh]]\npath = \"data/not-fetched-yet.ply\"\n"),
     )
     .unwrap();
     let out = kdray(&["render", s(&scene), "-o", s(&d.join("x.png"))]);
@@ -75,7 +75,11 @@ fn a_missing_benchmark_mesh_names_the_script_that_fetches_it() {
     assert!(msg.contains("scripts/fetch-meshes.sh"), "{msg}");
     assert!(!d.join("x.png").exists());
     // A mesh elsewhere is just missing: no hint about the benchmark meshes.
-    std::fs::write(&scene, "[[mesh]]\npath = \"mine.ply\"\n").unwrap();
+    std::fs::write(
+        &scene,
+        format!("{SMALL_SCENE}\n[[mesh]]\npath = \"mine.ply\"\n"),
+    )
+    .unwrap();
     let msg = stderr(&kdray(&["build", s(&scene), "-o", s(&d.join("x.kdt"))]));
     assert!(
         msg.contains("mine.ply") && !msg.contains("fetch-meshes"),

@@ -42,6 +42,13 @@ impl Rect {
     fn inside(&self, o: &Rect) -> bool {
         self.left >= o.left && self.right <= o.right && self.top >= o.top && self.bottom <= o.bottom
     }
+
+    /// The squared distance from `(x, y)` to the nearest point of the box.
+    pub fn distance2(&self, (x, y): (i32, i32)) -> i64 {
+        let dx = i64::from((self.left - x).max(x - self.right).max(0));
+        let dy = i64::from((self.top - y).max(y - self.bottom).max(0));
+        dx * dx + dy * dy
+    }
 }
 
 /// A label's place: the top-left corner of its text, and whether it is far enough from its point
@@ -92,10 +99,18 @@ pub fn place(
         });
         let free = candidates
             .map(|(x, y, d)| (Rect::at(x, y, (w, h)), d))
-            .find(|(r, _)| {
+            .find(|&(r, d)| {
+                // Beside its point (no leader line), a label must be nearer to it than to any
+                // other point, or it reads as another point's.
+                let own = r.distance2((px, py));
+                let unambiguous = d > DISTANCES[0]
+                    || points
+                        .iter()
+                        .all(|&p| p == (px, py) || r.distance2(p) > own);
                 r.inside(&bounds)
-                    && !markers.iter().any(|m| m.overlaps(r))
-                    && !taken.iter().any(|t| t.overlaps(r))
+                    && unambiguous
+                    && !markers.iter().any(|m| m.overlaps(&r))
+                    && !taken.iter().any(|t| t.overlaps(&r))
             });
         let (rect, d) = free.unwrap_or((Rect::at(px + MARKER + 2, py - hi / 2, (w, h)), 0));
         taken.push(rect);
@@ -133,14 +148,12 @@ mod tests {
             // Its own point is the nearest to the label's box of all points, unless it needed a
             // leader line (which then shows where it belongs).
             if !placed[i].leader {
-                let dist = |p: &(i32, i32)| {
-                    let dx = (r.left - p.0).max(p.0 - r.right).max(0);
-                    let dy = (r.top - p.1).max(p.1 - r.bottom).max(0);
-                    dx * dx + dy * dy
-                };
-                let own = dist(&points[i]);
+                let own = r.distance2(points[i]);
                 for (j, p) in points.iter().enumerate() {
-                    assert!(j == i || dist(p) >= own, "label {i} is nearer point {j}");
+                    assert!(
+                        j == i || r.distance2(*p) > own,
+                        "label {i} is as near point {j}"
+                    );
                 }
             }
         }
