@@ -17,11 +17,11 @@
 #                       until it is stopped
 #
 # The commands run one by one, each in a `set -e` subshell (a bare assignment such as `K=...`
-# carries on to the next commands), in a scratch copy of the repository's files (tracked and new, not ignored
-# ones) whose `target/` is a link to this repository's, so nothing the docs write (render.png,
+# carries on to the next commands), in a scratch copy of the repository's files (tracked and
+# new, not ignored ones) with a build directory of its own, so nothing the docs write (render.png,
 # docs/*.png, part-*.exr) lands in the working tree. `cargo install --locked --path host` installs into
 # the scratch copy's `.cargo/bin`, which is first on the PATH: your ~/.cargo is not touched.
-# The scratch copy (target/doc-commands, or $KDRAY_DOC_SCRATCH) is left for a look afterwards.
+# The copy (target/doc-commands/tree, or $KDRAY_DOC_SCRATCH/tree) is left for a look afterwards.
 # Stops at the first command that fails, naming its file and line; exit 1.
 set -euo pipefail
 
@@ -104,22 +104,26 @@ if [ "$list" = 1 ]; then
     exit 0
 fi
 
-# The scratch copy sits at a fixed place inside target/ (ignored by git), emptied first: cargo
-# keys its build of a path crate on the crate's path, so a fixed path (and the files' times,
-# which tar keeps) lets a second run reuse the first one's release build instead of redoing it.
-scratch=${KDRAY_DOC_SCRATCH:-$root/target/doc-commands}
+# The scratch copy sits at a fixed place inside target/ (ignored by git), emptied first, with a
+# build directory of its own next to it (`target/` in the copy links to it), kept between runs:
+# cargo keys the build of a workspace's crates on their paths relative to the workspace, so the
+# copy must not share this repository's target/ (a build in one would pass for fresh in the
+# other), and the fixed path with the files' times (tar keeps them) lets a second run reuse the
+# first one's release build.
+work=${KDRAY_DOC_SCRATCH:-$root/target/doc-commands}
+scratch=$work/tree
 rm -rf "$scratch"
-mkdir -p "$scratch"
+mkdir -p "$scratch" "$work/target"
 # The repository's files as they are now (committed or not), without ignored ones (target/,
 # data/, node_modules/) ...
 git ls-files -z --cached --others --exclude-standard |
     while IFS= read -r -d '' f; do [ -e "$f" ] && printf '%s\0' "$f"; done |
     tar --null -T - -cf - | tar -xf - -C "$scratch"
-# ... sharing the build directory, so that cargo reuses what is built, and the fetched meshes.
-mkdir -p "$root/target"
-ln -s "$root/target" "$scratch/target"
+# ... and the fetched meshes and npm packages, which are not copied.
+ln -s "$work/target" "$scratch/target"
 [ -d "$root/data" ] && ln -s "$root/data" "$scratch/data"
 [ -d "$root/targets/wasm/node_modules" ] && ln -s "$root/targets/wasm/node_modules" "$scratch/targets/wasm/node_modules"
+unset CARGO_TARGET_DIR
 
 export CARGO_INSTALL_ROOT="$scratch/.cargo"
 export PATH="$scratch/.cargo/bin:$PATH"
