@@ -10,7 +10,7 @@ use kdray_core::Scene;
 use kdray_core::render::{self, Bounces, Material, Settings};
 use kdray_core::traverse::Mode;
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() -> Result<(), Box<dyn core::error::Error>> {
     // The host loads the scene (camera, materials, geometry) and builds its tree ...
     let file = SceneFile::default_scene();
     let geom = file.geometry()?;

@@ -10,7 +10,7 @@ use kdray::build::{BuildParams, build};
 use kdray::flat;
 use kdray_core::{Ray, Scene};
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() -> Result<(), Box<dyn core::error::Error>> {
     // A unit square in the z = 0 plane (two triangles) and a sphere behind it.
     let geom = Geometry {
         triangles: vec![
