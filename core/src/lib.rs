@@ -5,6 +5,42 @@
 //! triangles, cancellation-free spheres, reflection, refraction, Fresnel, hemisphere sampling,
 //! cameras) against which the SIMD packet kernels are tested.
 //!
+//! ## Getting started
+//! This crate traces; it does not build trees. Trees come from the host crate, [`kdray`]: the
+//! `kdray build MESH -o FILE.kdt` command (`cargo install --locked --path host` in the repository), or in
+//! Rust `kdray::build::build` and `kdray::flat::serialize`, which give the same `Vec<u32>`. Hand
+//! the words to [`Scene::from_words`], which checks them once, then trace:
+//!
+//! ```
+//! use glam::Vec3;
+//! use kdray_core::{Hit, Ray, Scene, include_words, words};
+//!
+//! // A unit cube ([0, 1]³, 12 triangles) built by `kdray build`, compiled into the program on a
+//! // 4-byte boundary (examples/data/cube.kdt; `include_words!` takes a path like
+//! // `include_bytes!`).
+//! let bytes: &[u8] = include_words!(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/data/cube.kdt"));
+//! let scene = Scene::from_words(words::from_bytes(bytes).unwrap()).unwrap();
+//! assert_eq!(scene.tri_count(), 12);
+//!
+//! // Closest hit: down the z axis onto the cube's top face, z = 1, at t = 2.
+//! let ray = Ray::new(Vec3::new(0.5, 0.5, 3.0), Vec3::NEG_Z);
+//! let hit: Hit = scene.intersect(&ray);
+//! assert!(hit.is_hit());
+//! assert!((hit.t - 2.0).abs() < 1e-6);
+//! // A miss is `Hit::MISS`: t = inf, prim = 0xFFFFFFFF.
+//! assert!(!scene.intersect(&Ray::new(Vec3::new(3.0, 3.0, 3.0), Vec3::X)).is_hit());
+//! // Any hit (shadow rays): is anything within t < 1.5?
+//! assert!(!scene.occluded(&ray.with_range(0.0, 1.5)));
+//! ```
+//!
+//! Four or eight rays at once: [`simd`]; many rays, sorted into packets for you: [`stream`];
+//! images: [`render`] (with a camera from [`camera`] and the materials and lights of a scene, or
+//! a render description from `kdray build --description`, [`description`]). The examples
+//! (`cargo run --example trace_kdt` for this crate; `triangles` and `render_buffer` in `kdray`)
+//! show each way in a short program.
+//!
+//! [`kdray`]: https://docs.rs/kdray
+//!
 //! ## Guarantees
 //! - `#![no_std]`, never links `alloc`, `#![forbid(unsafe_code)]`. Float functions that `core`
 //!   lacks come from `libm` through one shim module ([`math`]), so the thumbv7em and wasm32 builds
@@ -16,12 +52,12 @@
 //!
 //! ## Modules
 //! - [`ray`]: [`Ray`] and [`Hit`].
-//! - [`triangle`]: Möller–Trumbore (seed §4), barycentric interpolation, normals.
+//! - [`triangle`]: Möller–Trumbore (Rukin §4), barycentric interpolation, normals.
 //! - [`watertight`]: the watertight triangle test (Woop, Benthin & Wald 2013).
 //! - [`sphere`]: the cancellation-free sphere test (Ray Tracing Gems ch. 7).
-//! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (seed §5).
+//! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (Rukin §5).
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
-//! - [`camera`]: pinhole, the seed's fisheye and parallel cameras, its thick lens and lens array.
+//! - [`camera`]: pinhole, Rukin's fisheye and parallel cameras, its thick lens and lens array.
 //! - [`format`], [`node`]: the flat scene format and its validation; [`blocked`]: the
 //!   cache-line-blocked copy of the tree (three levels per 64-byte block) and its walk.
 //! - [`traverse`]: scalar closest-hit and any-hit traversal; [`walk`]: its walk as resumable
@@ -36,8 +72,9 @@
 //! - [`simd`]: 4- and 8-wide ray packets, the lane trait they are generic over, and the packet
 //!   kernels, which match the scalar ones lane by lane.
 //!
-//! The seed document is `shared/seed/ray-tracing-equations.txt`; equation numbers in the docs
-//! refer to it, with the corrections of its `NOTES.md`.
+//! Equation and section numbers ("Rukin §4", "equation (16)") refer to Rukin, "Equations for Ray
+//! Tracing Implementation", the document the scalar math was written from; where it errs (a lost
+//! sign, an exponent), the docs say so in place.
 #![no_std]
 #![forbid(unsafe_code)]
 // Hit tests are written as `!(x > y)` on purpose: NaN must fail them (see the crate doc).

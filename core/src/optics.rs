@@ -1,4 +1,4 @@
-//! Reflection, refraction and Fresnel (seed §5, with NOTES.md's corrections).
+//! Reflection, refraction and Fresnel (Rukin §5, as corrected here).
 //!
 //! Conventions: `r` is the incident direction (pointing towards the surface), `n` a unit surface
 //! normal, both unit vectors. Functions that need the normal to face the incoming ray flip it
@@ -43,8 +43,8 @@ pub fn cos_transmitted(cos_i: f32, eta1: f32, eta2: f32) -> Option<f32> {
     }
 }
 
-/// Schlick's approximation of the Fresnel reflectance (equations (57)–(58), exponent 5 per
-/// NOTES.md): `R = R0 + (1 − R0)(1 − cosθ)⁵`, `R0 = ((η1 − η2)/(η1 + η2))²`.
+/// Schlick's approximation of the Fresnel reflectance (equations (57)–(58), exponent 5, correcting
+/// Rukin): `R = R0 + (1 − R0)(1 − cosθ)⁵`, `R0 = ((η1 − η2)/(η1 + η2))²`.
 ///
 /// `cos_i` is `|r·n|`. Going into a less dense medium (`η1 > η2`) the cosine of the transmitted
 /// side is used, and `R = 1` under total internal reflection. The transmittance is `1 − R`.

@@ -1,4 +1,4 @@
-//! Rays and hits (seed §3.1, equation (2)): `r(t) = o + t·d` with `d` normalized, so `t` is a
+//! Rays and hits (Rukin §3.1, equation (2)): `r(t) = o + t·d` with `d` normalized, so `t` is a
 //! distance.
 
 use glam::Vec3;

@@ -36,9 +36,9 @@ impl Onb {
     }
 }
 
-/// The seed's diffuse direction (equation (56)):
+/// Rukin's diffuse direction (equation (56)):
 /// `(sqrt(1 − u2²) cos 2πu1, sqrt(1 − u2²) sin 2πu1, u2)`. Since `z = cosθ = u2` is uniform, this
-/// is uniform over the hemisphere (NOTES.md): pdf `1/2π`, mean `cosθ = 1/2`.
+/// is uniform over the hemisphere (correcting Rukin): pdf `1/2π`, mean `cosθ = 1/2`.
 #[inline]
 pub fn uniform_hemisphere(u1: f32, u2: f32) -> Vec3 {
     let r = math::sqrt((1.0 - u2 * u2).max(0.0));

@@ -1,8 +1,8 @@
-//! Ray/sphere intersection (seed §4 "Spheres", equations (28)–(33)) in the cancellation-free form
+//! Ray/sphere intersection (Rukin §4 "Spheres", equations (28)–(33)) in the cancellation-free form
 //! of Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7,
-//! as NOTES.md prescribes.
+//! as the corrected equations prescribe.
 //!
-//! The seed's textbook quadratic (equation (32)) computes `b² − (|o − c|² − R²)`: for a sphere of
+//! Rukin's textbook quadratic (equation (32)) computes `b² − (|o − c|² − R²)`: for a sphere of
 //! radius 1 at distance 10⁴ both terms are about 10⁸ and f32 cancels the difference away, losing the
 //! sphere. Instead, with `d` normalized, `f = o − c`, `b = f·d`:
 //!

@@ -1,8 +1,8 @@
 //! Ray/triangle intersection: Möller & Trumbore 1997, "Fast, Minimum Storage Ray-Triangle
-//! Intersection", in the seed's cofactor form (§4, equations (13)–(27)).
+//! Intersection", in Rukin's cofactor form (§4, equations (13)–(27)).
 //!
-//! The seed writes the hit condition `o + t·d = e + α(f − e) + β(g − e)` as the linear system
-//! `o − e = [−d, f − e, g − e]·(t, α, β)ᵀ` (equation (16); NOTES.md restores the lost sign of the
+//! Rukin writes the hit condition `o + t·d = e + α(f − e) + β(g − e)` as the linear system
+//! `o − e = [−d, f − e, g − e]·(t, α, β)ᵀ` (equation (16); this restores the lost sign of the
 //! `−d` column) and solves it with the adjugate over the determinant (equations (17)–(23)). Each
 //! cofactor of that 3×3 system is a scalar triple product, which is what Möller–Trumbore computes:
 //! with `e1 = f − e`, `e2 = g − e`, `s = o − e`, `p = d × e2`, `q = s × e1`
@@ -35,7 +35,7 @@ pub struct Triangle {
 }
 
 impl Triangle {
-    /// From the three vertices `e`, `f`, `g` of the seed (`v0`, `v1`, `v2`).
+    /// From the three vertices `e`, `f`, `g` of Rukin (`v0`, `v1`, `v2`).
     #[inline]
     pub fn from_vertices(v0: Vec3, v1: Vec3, v2: Vec3) -> Self {
         Self {
@@ -51,7 +51,7 @@ impl Triangle {
         [self.v0, self.v0 + self.e1, self.v0 + self.e2]
     }
 
-    /// The unnormalized geometric normal `(f − e) × (g − e)` (NOTES.md's correction of the seed's
+    /// The unnormalized geometric normal `(f − e) × (g − e)` (correcting Rukin's
     /// equations (24)–(27)); its length is twice the area, zero for a degenerate triangle.
     #[inline]
     pub fn geometric_normal(&self) -> Vec3 {
@@ -136,7 +136,7 @@ impl Triangle {
     }
 }
 
-/// Interpolates per-vertex values with barycentrics `(α, β)` (seed note under equation (13)):
+/// Interpolates per-vertex values with barycentrics `(α, β)` (Rukin's note under equation (13)):
 /// `a + α(b − a) + β(c − a)`, written as `(1 − α − β)·a + α·b + β·c` so that each vertex value is
 /// reproduced exactly at its corner.
 #[inline]

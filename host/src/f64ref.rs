@@ -98,7 +98,7 @@ pub fn det3(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     a.dot(b.cross(c))
 }
 
-/// The unconstrained solution of the seed's equation (16) with NOTES.md's sign:
+/// The unconstrained solution of Rukin's equation (16) with the corrected sign:
 /// `o − e = [−d, e1, e2]·(t, α, β)ᵀ`, `e1 = f − e`, `e2 = g − e`, by Cramer's rule.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MtSolution {
@@ -206,13 +206,13 @@ pub fn fresnel_dielectric(cos_i: f64, eta1: f64, eta2: f64) -> f64 {
     0.5 * (rs * rs + rp * rp)
 }
 
-/// The seed's equation (3) in degrees: `(sinθ cosφ, sinθ sinφ, cosθ)`.
+/// Rukin's equation (3) in degrees: `(sinθ cosφ, sinθ sinφ, cosθ)`.
 pub fn spherical_dir(phi_deg: f64, theta_deg: f64) -> DVec3 {
     let (p, t) = (phi_deg.to_radians(), theta_deg.to_radians());
     DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
 }
 
-/// The seed's parallel-camera axes (equations (4)–(5)) in degrees:
+/// Rukin's parallel-camera axes (equations (4)–(5)) in degrees:
 /// `vec1 = (cosθ cosφ, cosθ sinφ, −sinθ)` (vertical) and `vec2 = (−sinφ, cosφ, 0)` (horizontal).
 pub fn parallel_axes(phi_deg: f64, theta_deg: f64) -> (DVec3, DVec3) {
     let (p, t) = (phi_deg.to_radians(), theta_deg.to_radians());

@@ -2,6 +2,43 @@
 //!
 //! The `std` side of kdray: loads meshes and scenes, builds the SAH kd-tree, serializes it into the
 //! flat word array that `kdray-core` traverses, and drives the `kdray` command line.
+//!
+//! ## Getting started
+//! Triangles (and spheres) in a [`Geometry`] → [`build::build`] → [`flat::serialize`] gives the
+//! words of a tree, the same words `kdray build` writes into a `.kdt` ([`flat::write_kdt`]);
+//! [`kdray_core::Scene::from_words`] checks them and traces rays through them, on the host as on
+//! a microcontroller or in WebAssembly:
+//!
+//! ```
+//! use glam::Vec3;
+//! use kdray::Geometry;
+//! use kdray::build::{BuildParams, build};
+//! use kdray_core::{Ray, Scene};
+//!
+//! // One triangle in the z = 0 plane and a sphere of radius 0.5 around (0, 0, -3).
+//! let geom = Geometry {
+//!     triangles: vec![[Vec3::ZERO, Vec3::X, Vec3::Y]],
+//!     spheres: vec![(Vec3::new(0.0, 0.0, -3.0), 0.5)],
+//!     ..Geometry::default()
+//! };
+//! let tree = build(&geom, &BuildParams::default(), None).unwrap();
+//! let words: Vec<u32> = kdray::flat::serialize(&tree, &geom, 0.0).unwrap();
+//!
+//! let scene = Scene::from_words(&words).unwrap();
+//! let hit = scene.intersect(&Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z));
+//! assert_eq!(hit.prim, 0); // the triangle
+//! assert!((hit.t - 1.0).abs() < 1e-6);
+//! let hit = scene.intersect(&Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::NEG_Z));
+//! assert_eq!(hit.prim, 1); // the sphere: triangles are numbered first, then spheres
+//! assert!((hit.t - 1.5).abs() < 1e-6);
+//! ```
+//!
+//! Scene files (`docs/SCENE.md`) load with [`scene::load_scene`] (camera, materials, geometry);
+//! meshes with [`input::load_input`] (PLY, OBJ, `.tri`); [`progressive`] renders on all cores.
+//! Runnable programs: `cargo run --release --example triangles` (this example with more rays)
+//! and `--example render_buffer` (a scene rendered into a buffer) in this crate,
+//! `--example trace_kdt` (a `.kdt` compiled in, traced `no_std`-style) in `kdray-core`. The
+//! command line: `kdray --help`.
 
 pub mod error;
 pub mod files;

@@ -6,6 +6,8 @@
 //! usual system folders (Debian package `fonts-dejavu-core`, present on the project's machines)
 //! and registered with `plotters::style::register_font`.
 
+mod labels;
+
 use crate::error::{Error, Result};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -244,13 +246,11 @@ fn draw_panel(
     for (k, (name, points)) in panel.series.iter().enumerate() {
         let colour = Palette99::pick(k).to_rgba();
         chart
-            .draw_series(points.iter().enumerate().map(|(i, p)| {
-                // Alternate labels above and below, so neighbours at one height stay legible.
-                let dy = if i % 2 == 0 { -16 } else { 4 };
-                EmptyElement::at((p.x, y_of(p)))
-                    + Circle::new((0, 0), 5, colour.filled())
-                    + Text::new(p.label.clone(), (7, dy), ("sans-serif", 13))
-            }))?
+            .draw_series(
+                points
+                    .iter()
+                    .map(|p| Circle::new((p.x, y_of(p)), 5, colour.filled())),
+            )?
             .label(name.as_str())
             .legend(move |(x, y)| Circle::new((x, y), 5, colour.filled()));
     }
@@ -260,5 +260,62 @@ fn draw_panel(
         .border_style(BLACK)
         .position(SeriesLabelPosition::UpperRight)
         .draw()?;
+
+    // The labels, in their series' colour, each placed clear of every point and every other
+    // label (`labels::place`); one moved away from its point gets a leader line to it.
+    let font: TextStyle = ("sans-serif", 13).into();
+    let mut pixels = Vec::new();
+    let mut sizes = Vec::new();
+    let mut owners = Vec::new();
+    for (k, (_, points)) in panel.series.iter().enumerate() {
+        for p in points {
+            pixels.push(chart.backend_coord(&(p.x, y_of(p))));
+            sizes.push(area.estimate_text_size(&p.label, &font)?);
+            owners.push((k, p.label.as_str()));
+        }
+    }
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
+    let bounds = labels::Rect {
+        left: xs.start,
+        top: ys.start,
+        right: xs.end,
+        bottom: ys.end,
+    };
+    // The legend (upper right, drawn above): one line per series, about 20 pixels each.
+    let legend_w = panel
+        .series
+        .iter()
+        .map(|(name, _)| area.estimate_text_size(name, &font).map_or(0, |(w, _)| w))
+        .max()
+        .unwrap_or(0) as i32
+        + 40;
+    let legend = labels::Rect {
+        left: bounds.right - legend_w - 10,
+        top: bounds.top,
+        right: bounds.right,
+        bottom: bounds.top + 20 * panel.series.len() as i32 + 20,
+    };
+    let (bx, by) = area.get_base_pixel();
+    let placed = labels::place(&pixels, &sizes, bounds, &[legend]);
+    for (((&(px, py), &(w, h)), place), (k, text)) in
+        pixels.iter().zip(&sizes).zip(&placed).zip(owners)
+    {
+        let colour = Palette99::pick(k).to_rgba();
+        if place.leader {
+            // From the point to the nearest point of the label's box.
+            let tx = px.clamp(place.x, place.x + w as i32);
+            let ty = py.clamp(place.y, place.y + h as i32);
+            area.draw(&PathElement::new(
+                vec![(px - bx, py - by), (tx - bx, ty - by)],
+                colour.stroke_width(1),
+            ))?;
+        }
+        let style = font.color(&colour);
+        area.draw(&Text::new(
+            text.to_string(),
+            (place.x - bx, place.y - by),
+            style,
+        ))?;
+    }
     Ok(())
 }

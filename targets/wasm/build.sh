@@ -19,12 +19,15 @@ rustup target add wasm32-unknown-unknown >/dev/null 2>&1 || true
 out="${KDRAY_WASM_OUT:-$out}"
 mkdir -p "$out"
 base="${CARGO_TARGET_DIR:-$here/target}"
+# cargo's progress bar on a terminal (a first build takes minutes), quiet in logs.
+quiet=(--quiet)
+[[ -t 2 ]] && quiet=()
 for variant in scalar simd128; do
   flags=""
   [[ $variant == simd128 ]] && flags="-C target-feature=+simd128"
   dir="$base/wasm-$variant"
   RUSTFLAGS="$flags" CARGO_TARGET_DIR="$dir" \
-    cargo build --quiet --profile "$profile" --target wasm32-unknown-unknown "$@"
+    cargo build "${quiet[@]}" --profile "$profile" --target wasm32-unknown-unknown "$@"
   cp "$dir/wasm32-unknown-unknown/$profile/kdray_wasm.wasm" "$out/kdray_wasm_$variant.wasm"
 done
 ls -l "$out"/kdray_wasm_*.wasm | awk '{print $NF, $5, "bytes"}'

@@ -14,17 +14,28 @@ root="$(cd "$here/../.." && pwd)"
 scene="${1:-$root/host/scenes/default.toml}"
 size="${KDRAY_WASM_SIZE:-32x32}"
 spp="${KDRAY_WASM_SPP:-4}"
-command -v node >/dev/null || { apt-get update -qq && apt-get install -y -qq nodejs >/dev/null; }
+# Progress on stderr (stdout is the one result line): each step as it starts, and cargo's own
+# progress bar while building when stderr is a terminal (the first builds take minutes).
+say() { echo "wasm/run.sh: $*" >&2; }
+quiet=(--quiet)
+[[ -t 2 ]] && quiet=()
+if ! command -v node >/dev/null; then
+  say "node is not on the PATH: installing Debian's nodejs with apt-get (needs root)"
+  apt-get update -qq && apt-get install -y -qq nodejs >/dev/null
+fi
 
 cd "$root"
 # The host binary: $KDRAY when set (e.g. a release build from scripts/targets.sh), else a debug build.
 if [[ -n "${KDRAY:-}" ]]; then
   kdray="$KDRAY"
 else
-  cargo build --quiet -p kdray
+  say "building the host kdray (debug; the first time takes minutes)"
+  cargo build "${quiet[@]}" -p kdray
   kdray="${CARGO_TARGET_DIR:-$root/target}/debug/kdray"
 fi
+say "building the WASM modules, scalar and simd128 (the first time takes minutes)"
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$root/target}/targets" "$here/build.sh" >/dev/null
+say "rendering $scene at $size, $spp spp on the host and in each module under Node"
 
 out="$here/out"
 mkdir -p "$out"
@@ -43,6 +54,7 @@ for variant in scalar simd128; do
   sum=$(sed -n 's/.*checksum=\([0-9a-f]*\).*/\1/p' <<<"$line")
 done
 # kd_trace against `kdray trace`: primary and diffuse rays, every packet width, byte for byte.
+say "tracing the primary and diffuse rays with kd_trace against kdray trace"
 "$kdray" rays "$out/scene.kdt" -o "$out/primary.bin" --size "$size" >/dev/null
 "$kdray" rays "$out/scene.kdt" -o "$out/diffuse.bin" --size "$size" --kind diffuse >/dev/null
 trace=yes

@@ -1,5 +1,5 @@
-//! Cameras: the seed's fisheye (§3.2) and parallel (§3.3) examples reproduced pixel by pixel
-//! against f64 evaluations of equations (3)–(5), the `{start, middle, end}` spans of NOTES.md, and
+//! Cameras: Rukin's fisheye (§3.2) and parallel (§3.3) examples reproduced pixel by pixel
+//! against f64 evaluations of equations (3)–(5), the `{start, middle, end}` spans as corrected, and
 //! the pinhole camera's aim and field of view.
 
 use glam::Vec3;
@@ -7,10 +7,10 @@ use kdray_core::camera::{Camera, CameraError, Fisheye, Parallel, Pinhole, Span, 
 use kdray_tests::f64ref::{self, DVec3, dv};
 use proptest::prelude::*;
 
-/// Image sizes with a middle pixel: the seed's examples at a tiny and a realistic resolution.
+/// Image sizes with a middle pixel: Rukin's examples at a tiny and a realistic resolution.
 const SIZES: [(u32, u32); 3] = [(5, 3), (101, 51), (3, 5)];
 
-/// The seed's fisheye example: origin (−1, −2, 1), φ {90, 30, −30}, θ {70, 110, 150} (degrees).
+/// Rukin's fisheye example: origin (−1, −2, 1), φ {90, 30, −30}, θ {70, 110, 150} (degrees).
 fn seed_fisheye() -> Fisheye {
     Fisheye {
         origin: Vec3::new(-1.0, -2.0, 1.0),
@@ -19,7 +19,7 @@ fn seed_fisheye() -> Fisheye {
     }
 }
 
-/// The seed's parallel example: origin (0, −1, 0), rotation φ = θ = 110°, ranges {−2, 0, 2}.
+/// Rukin's parallel example: origin (0, −1, 0), rotation φ = θ = 110°, ranges {−2, 0, 2}.
 fn seed_parallel() -> Parallel {
     let range = Span::from_triple([-2.0, 0.0, 2.0]).unwrap();
     Parallel::new(Vec3::new(0.0, -1.0, 0.0), 110.0, 110.0, range, range)
@@ -79,7 +79,7 @@ fn fisheye_seed_example_middle_and_corners() {
             spherical_dir(-30.0, 150.0),
             "{w}×{h} bottom right"
         );
-        // And those are the seed's equation (3).
+        // And those are Rukin's equation (3).
         let middle = dv(ray(w / 2, h / 2).dir);
         assert!(middle.max_abs_diff(f64ref::spherical_dir(30.0, 110.0)) <= 1e-6);
     }
@@ -110,7 +110,7 @@ fn fisheye_every_pixel_matches_equation_3() {
     }
 }
 
-/// The parallel camera's axes are the seed's equations (4)–(5), orthonormal with the viewing
+/// The parallel camera's axes are Rukin's equations (4)–(5), orthonormal with the viewing
 /// direction, and right-handed: `vec1 × vec2 = d` (θ̂ × φ̂ = r̂ of spherical coordinates), which
 /// pins the signs of both.
 #[test]

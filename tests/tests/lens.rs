@@ -1,4 +1,4 @@
-//! The seed's lens cameras: the thick lens against the lensmaker's equation (through f64 ray
+//! Rukin's lens cameras: the thick lens against the lensmaker's equation (through f64 ray
 //! transfer matrices written here, not the code under test), its axis, rim and weight; the lens
 //! array's elemental images where the geometry puts them.
 

@@ -1,4 +1,4 @@
-//! Reflection, refraction and Fresnel (seed §5 with NOTES.md's corrections): Snell's law, total
+//! Reflection, refraction and Fresnel (Rukin §5 as corrected here): Snell's law, total
 //! internal reflection, the mirror law, and Schlick's approximation against the exact Fresnel
 //! reflectance, with the error bound measured over the η range tested.
 

@@ -1,4 +1,4 @@
-//! Hemisphere samplers (`uniform_hemisphere`, the seed's equation (56); `cosine_hemisphere`) and
+//! Hemisphere samplers (`uniform_hemisphere`, Rukin's equation (56); `cosine_hemisphere`) and
 //! the orthonormal basis they are taken to world space with (`Onb`, Duff et al. 2017).
 //!
 //! The statistical tests use a fixed LCG sequence, so they are reproducible: a failure is a
@@ -192,7 +192,7 @@ fn cosine_hemisphere_mean_cosine_is_two_thirds() {
     }
 }
 
-/// NOTES.md: the two samplers must give the same mean. The Monte Carlo estimate of
+/// Correcting Rukin: the two samplers must give the same mean. The Monte Carlo estimate of
 /// `∫ cosθ dω = π` over the hemisphere, `mean(cosθ / pdf)`, agrees for both with their pdfs:
 /// uniform `2π·cosθ` (Var π²/3) within 5 SE; cosine-weighted `cosθ/(cosθ/π) = π` for every
 /// sample (zero variance, up to rounding).

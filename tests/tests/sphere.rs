@@ -10,7 +10,7 @@ use kdray_tests::strategies::*;
 use kdray_tests::{EDGES, Lcg};
 use proptest::prelude::*;
 
-/// The seed's textbook quadratic (equation (32)) in f32, `d` normalized: `t = −p/2 − sqrt(p²/4 −
+/// Rukin's textbook quadratic (equation (32)) in f32, `d` normalized: `t = −p/2 − sqrt(p²/4 −
 /// q)` with `p/2 = d·(o − c)`, `q = |o − c|² − R²`. Only here to show the far-sphere case is stiff.
 fn textbook_near_root(ray: &Ray, s: &Sphere) -> Option<f32> {
     let f = ray.origin - s.center;

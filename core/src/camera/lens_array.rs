@@ -1,4 +1,4 @@
-//! The seed's lens array ("lens array", with NOTES.md's corrections): the elemental images an
+//! Rukin's lens array ("lens array", as corrected here): the elemental images an
 //! integral-imaging display shows behind a planar array of identical lenslets.
 //!
 //! Lens-array coordinates are the camera's [`Frame`]: `x` right, `y` up, `z` the viewing
@@ -7,8 +7,8 @@
 //! image) at `z = −g` behind it, `g` the gap (the lenslets' focal length, so each lenslet images
 //! infinity onto the display). The image spans `size = (w, h)` of the display, centred on the axis.
 //!
-//! The seed's small-angle model: a pixel sees through the one lenslet in front of it, whose index
-//! is `k = round(x / t_h.x)`, `l = round(y / t_v.y)` (NOTES.md), and a lenslet acts as a pinhole at
+//! Rukin's small-angle model: a pixel sees through the one lenslet in front of it, whose index
+//! is `k = round(x / t_h.x)`, `l = round(y / t_v.y)` (correcting Rukin), and a lenslet acts as a pinhole at
 //! its centre `c`: the pixel at display point `q` shows what lies along the ray from `c` in
 //! direction `(c − q, g)`. Each lenslet's patch of the display is therefore a small inverted
 //! picture of the scene from that lenslet's place: the elemental image.

@@ -5,7 +5,7 @@
 //! the centre's ray; a renderer jitters inside the pixel and calls [`Camera::sample`], which a
 //! camera with an aperture ([`ThickLens`]) overrides to pick a point on its lens.
 //!
-//! Kinds: [`Pinhole`]; the seed's [`Fisheye`] (§3.2) and [`Parallel`] (§3.3); the seed's lenses,
+//! Kinds: [`Pinhole`]; Rukin's [`Fisheye`] (§3.2) and [`Parallel`] (§3.3); Rukin's lenses,
 //! [`ThickLens`] ("Rays from a thin lens", `thick_lens.rs`) and [`LensArray`] ("lens array",
 //! `lens_array.rs`).
 
@@ -105,9 +105,9 @@ pub enum CameraError {
     CannotFocus,
 }
 
-/// An angle or offset range given as the seed's `{start, middle, end}`: pixel centres are spaced
+/// An angle or offset range given as Rukin's `{start, middle, end}`: pixel centres are spaced
 /// evenly from `start` (first pixel) to `end` (last pixel), so the middle pixel of an odd count
-/// lands on the middle value (NOTES.md §3.2).
+/// lands on the middle value (correcting Rukin §3.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Span {
     pub start: f32,
@@ -115,8 +115,8 @@ pub struct Span {
 }
 
 impl Span {
-    /// From the seed's `{start, middle, end}`; the middle must be the midpoint (to 1e-4 of the
-    /// span's length), since the seed uses it only as documentation of the range.
+    /// From Rukin's `{start, middle, end}`; the middle must be the midpoint (to 1e-4 of the
+    /// span's length), since Rukin uses it only as documentation of the range.
     pub fn from_triple(v: [f32; 3]) -> Result<Self, CameraError> {
         let [start, middle, end] = v;
         if !(start.is_finite() && middle.is_finite() && end.is_finite()) {
@@ -140,7 +140,7 @@ impl Span {
     }
 }
 
-/// The seed's direction from spherical angles (equation (3)), in degrees:
+/// Rukin's direction from spherical angles (equation (3)), in degrees:
 /// `(sinθ cosφ, sinθ sinφ, cosθ)`.
 #[inline]
 pub fn spherical_dir(phi_deg: f32, theta_deg: f32) -> Vec3 {
@@ -193,7 +193,7 @@ impl Camera for Pinhole {
     }
 }
 
-/// The seed's fisheye camera (§3.2): one origin, directions evenly spaced in φ (horizontal, left to
+/// Rukin's fisheye camera (§3.2): one origin, directions evenly spaced in φ (horizontal, left to
 /// right) and θ (vertical, top to bottom), `d = (sinθ cosφ, sinθ sinφ, cosθ)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fisheye {
@@ -214,7 +214,7 @@ impl Camera for Fisheye {
     }
 }
 
-/// The seed's parallel (orthographic) camera (§3.3): one direction `d(φ, θ)`, origins shifted along
+/// Rukin's parallel (orthographic) camera (§3.3): one direction `d(φ, θ)`, origins shifted along
 /// `vec2 = (−sinφ, cosφ, 0)` across the width and `vec1 = (cosθ cosφ, cosθ sinφ, −sinθ)` down the
 /// height (equations (4)–(5)).
 #[derive(Clone, Copy, Debug, PartialEq)]

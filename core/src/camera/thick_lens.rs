@@ -1,4 +1,4 @@
-//! The seed's lens camera ("Rays from a thin lens", with NOTES.md's corrections): a thick lens of
+//! Rukin's lens camera ("Rays from a thin lens", as corrected here): a thick lens of
 //! two spherical surfaces, and a sensor behind it.
 //!
 //! Lens coordinates: the optical axis is `z`, pointing at the scene; `x` is the image's right, `y`
@@ -17,7 +17,7 @@
 //! A sample picks a point on the sensor and a point on the front surface inside the rim, and
 //! follows the ray between them: into the glass at the front surface (the smaller root), out at
 //! the rear surface (the larger root), each time by [`optics::refract`]. A ray that meets a surface
-//! outside the rim (or misses its sphere: the seed's negative radicand) or is totally internally
+//! outside the rim (or misses its sphere: Rukin's negative radicand) or is totally internally
 //! reflected at the rear surface is dropped. The image on the sensor is upside down and mirrored;
 //! the sensor point is taken from the point-reflected pixel so that the picture is upright.
 
@@ -48,7 +48,7 @@ pub struct LensShape {
 }
 
 impl LensShape {
-    /// A lens from the seed's parameters, checked.
+    /// A lens from Rukin's parameters, checked.
     ///
     /// # Errors
     /// [`CameraError::BadLens`] unless every value is finite, `r1, r2 > 0`, `l1, l2 ≥ 0` with
@@ -168,7 +168,7 @@ impl LensShape {
             return None;
         }
         let d1 = optics::refract(dir, front.normal(p1), 1.0, self.ior)?.try_normalize()?;
-        // ... and out at the rear surface's larger root (the seed's "positive sign").
+        // ... and out at the rear surface's larger root (Rukin's "positive sign").
         let rear = self.rear();
         let (_, t2) = rear.roots(&Ray::new(p1, d1))?;
         let p2 = p1 + t2 * d1;

@@ -354,6 +354,17 @@ impl Default for Settings {
 
 /// Measures every variant on `set`.
 pub fn measure(set: &RaySet, settings: &Settings) -> Vec<Row> {
+    measure_with(set, settings, &mut |_| {})
+}
+
+/// [`measure`], calling `round_done(r)` after timing round `r` (from 1) of `settings.rounds`, so
+/// that a caller can show progress (on this thread, between measurements: it adds nothing to the
+/// times).
+pub fn measure_with(
+    set: &RaySet,
+    settings: &Settings,
+    round_done: &mut dyn FnMut(usize),
+) -> Vec<Row> {
     let prepared = Prepared::new(set);
     let n = set.cases.len() * LANES;
     let mut out = vec![0.0; n];
@@ -368,7 +379,7 @@ pub fn measure(set: &RaySet, settings: &Settings) -> Vec<Row> {
     // Each measurement repeats passes until `min_measure_ms` have passed on the clock (the CPU
     // clock advances in scheduler ticks of a few ms, so measurements must be much longer).
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); Variant::ALL.len()];
-    for _ in 0..settings.rounds.max(1) {
+    for round in 0..settings.rounds.max(1) {
         for (i, &v) in Variant::ALL.iter().enumerate() {
             let start = Clock::now();
             let (mut passes, mut ns) = (0usize, 0.0);
@@ -379,6 +390,7 @@ pub fn measure(set: &RaySet, settings: &Settings) -> Vec<Row> {
             }
             times[i].push(ns / (passes * prepared.tests(v)) as f64);
         }
+        round_done(round + 1);
     }
     Variant::ALL
         .iter()

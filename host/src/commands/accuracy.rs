@@ -34,9 +34,19 @@ pub fn accuracy(args: &AccuracyArgs) -> Result<()> {
         ..Settings::default()
     };
     let mut rows = Vec::new();
+    // One step per timing round of each set; drawn between measurements, on this thread.
+    let bar = indicatif::ProgressBar::new(2 * u64::from(args.rounds));
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{msg} [{bar:30}] {pos}/{len} rounds {elapsed} (eta {eta})",
+        )
+        .expect("valid template"),
+    );
     for set in [sets::random(RANDOM_CASES), sets::seams(ICOSPHERE_LEVELS)] {
-        rows.extend(accuracy::measure(&set, &settings));
+        bar.set_message(format!("accuracy: timing the kernels on `{}`", set.name));
+        rows.extend(accuracy::measure_with(&set, &settings, &mut |_| bar.inc(1)));
     }
+    bar.finish_and_clear();
     println!(
         "kdray accuracy: isa={} rounds={} clock={} (ns per test: median of the rounds)",
         kdray_core::isa::name(),

@@ -26,7 +26,7 @@ pub struct ConvergeArgs {
     /// A scene file (.toml); without one, the built-in white furnace (analytic reference).
     pub scene: Option<PathBuf>,
     /// The report to write (.csv); the plot goes next to it as .png.
-    #[arg(short, long)]
+    #[arg(short, long, value_name = "REPORT.csv")]
     pub out: PathBuf,
     /// The sample counts double from 2 until a render takes this many seconds.
     #[arg(long, default_value_t = 4.0, value_parser = parse_seconds)]
@@ -128,7 +128,7 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
     } else {
         &["uniform"]
     };
-    let render = |spp: u32, seed: u64, adaptive: bool| {
+    let render_with = |spp: u32, seed: u64, adaptive: bool, show_bar: bool| {
         let plan = Plan {
             rows: 0..height,
             stop: Stop {
@@ -138,8 +138,9 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
             },
             adaptive,
         };
-        prepared.render(&settings(seed), &plan, &pool)
+        prepared.render_with(&settings(seed), &plan, &pool, show_bar)
     };
+    let render = |spp: u32, seed: u64, adaptive: bool| render_with(spp, seed, adaptive, true);
 
     // Round 0 finds the sample counts: doubling until a render takes --seconds.
     let mut images: Vec<Run> = Vec::new();
@@ -156,21 +157,37 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
             .rev()
             .find(|i| i.mode == "uniform")
             .map_or(0.0, |i| i.seconds);
-        eprintln!("converge: {spp} spp took {uniform_time:.3} s");
+        eprintln!(
+            "converge: round 1/{}: {spp} spp took {uniform_time:.3} s",
+            args.repeats
+        );
         if uniform_time >= args.seconds || spp * 2 * REFERENCE_FACTOR > MAX_SPP {
             break;
         }
         spp *= 2;
     }
+    // The other rounds: one progress bar for all their renders, in samples (a render's time is
+    // about proportional to them), so that its estimate of the time left holds.
+    let per_round: u64 = counts.iter().map(|&c| u64::from(c)).sum::<u64>() * modes.len() as u64;
+    let bar = indicatif::ProgressBar::new(per_round * u64::from(args.repeats - 1));
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{msg} [{bar:30}] {percent}% {elapsed} (eta {eta})",
+        )
+        .expect("valid template"),
+    );
     for round in 1..args.repeats {
+        bar.set_message(format!("converge: round {}/{}", round + 1, args.repeats));
         for &spp in &counts {
             for &mode in modes {
                 let seed = args.seed + u64::from(round);
-                let (film, stats) = render(spp, seed, mode == "adaptive")?;
+                let (film, stats) = render_with(spp, seed, mode == "adaptive", false)?;
                 images.push(Run::new(mode, spp, film.mean(), &stats));
+                bar.inc(u64::from(spp));
             }
         }
     }
+    bar.finish_and_clear();
 
     // The reference and the error of each image against it.
     let max_spp = *counts.last().unwrap_or(&2);

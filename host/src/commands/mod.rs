@@ -3,6 +3,7 @@
 mod accuracy;
 mod build;
 mod converge;
+mod hits;
 mod merge;
 mod render;
 mod trace;
@@ -10,6 +11,7 @@ mod trace;
 pub use accuracy::{AccuracyArgs, accuracy};
 pub use build::{BuildArgs, build, info};
 pub use converge::{ConvergeArgs, converge};
+pub use hits::{HitsArgs, hits};
 pub use merge::merge;
 pub use render::{RenderArgs, render};
 pub use trace::{RayKind, TraceArgs, rays, trace};

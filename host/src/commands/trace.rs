@@ -17,11 +17,15 @@ use std::time::Instant;
 pub struct TraceArgs {
     /// A .kdt, or anything `build` accepts (built first; build_ms reports that build).
     pub input: PathBuf,
-    /// The rays file (n × 8 f32: ox oy oz dx dy dz tmin tmax).
-    #[arg(long)]
+    /// The rays file (n × 8 little-endian f32: ox oy oz dx dy dz tmin tmax; `kdray rays` writes
+    /// one). Directions must have length 1 (± 1e-3).
+    #[arg(long, value_name = "RAYS.bin")]
     pub rays: PathBuf,
-    /// The hits file to write (n × (f32 t, u32 prim, f32 u, f32 v)).
-    #[arg(long)]
+    /// The hits file to write: one per ray, in the rays' order, n × (f32 t, u32 prim, f32 u,
+    /// f32 v) little-endian; prim is the primitive's index in the input (triangles first, then
+    /// spheres), u, v the barycentrics (0 for a sphere). A miss is written as t = inf,
+    /// prim = 0xFFFFFFFF, u = v = 0. `kdray hits FILE` prints it as text.
+    #[arg(long, value_name = "HITS.bin")]
     pub out: PathBuf,
     /// Rays per packet: 1 (single rays), or 4 or 8 consecutive rays traced together.
     #[arg(long, default_value_t = 1, value_parser = parse_packet)]

@@ -77,7 +77,16 @@ impl SceneFile {
                 None => {
                     let file = base.join(&m.path);
                     if let Err(e) = std::fs::metadata(&file) {
-                        let msg = format!("mesh `{}` ({}): {e}", m.path.display(), file.display());
+                        let mut msg =
+                            format!("mesh `{}` ({}): {e}", m.path.display(), file.display());
+                        if e.kind() == std::io::ErrorKind::NotFound && in_data_dir(&m.path) {
+                            // The benchmark meshes are not in the repository (DESIGN.md):
+                            // scripts/fetch-meshes.sh downloads them into data/.
+                            msg.push_str(
+                                " (the Stanford meshes are not in the repository: \
+                                 run scripts/fetch-meshes.sh to fetch them into data/)",
+                            );
+                        }
                         return Err(self.error(line, msg));
                     }
                     load_mesh(&file)?
@@ -113,6 +122,13 @@ impl SceneFile {
         }
         Ok(out)
     }
+}
+
+/// Whether a scene's mesh path points into a `data/` folder, where scripts/fetch-meshes.sh puts
+/// the meshes it downloads.
+fn in_data_dir(path: &Path) -> bool {
+    path.parent()
+        .is_some_and(|p| p.components().any(|c| c.as_os_str() == "data"))
 }
 
 #[cfg(test)]

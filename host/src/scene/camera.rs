@@ -14,7 +14,7 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer};
 
 /// How the image is looked at (`docs/SCENE.md`, "[camera]"). Angles in degrees;
-/// `[start, middle, end]` triples follow the seed document (the middle must be the midpoint).
+/// `[start, middle, end]` triples follow Rukin (the middle must be the midpoint).
 #[derive(Clone, Debug, PartialEq)]
 pub enum CameraDesc {
     /// A perspective camera at `eye` looking at `target`.
@@ -26,13 +26,13 @@ pub enum CameraDesc {
         /// Vertical field of view in degrees, in (0, 180); default 40.
         vfov: f32,
     },
-    /// The seed's fisheye: one origin, φ across the width and θ down the height.
+    /// Rukin's fisheye: one origin, φ across the width and θ down the height.
     Fisheye {
         origin: [f32; 3],
         phi: [f32; 3],
         theta: [f32; 3],
     },
-    /// The seed's parallel camera: direction `d(φ, θ)`, origins offset by `horizontal` along
+    /// Rukin's parallel camera: direction `d(φ, θ)`, origins offset by `horizontal` along
     /// `(−sinφ, cosφ, 0)` and `vertical` along `(cosθ cosφ, cosθ sinφ, −sinθ)`.
     Parallel {
         origin: [f32; 3],
@@ -41,7 +41,7 @@ pub enum CameraDesc {
         horizontal: [f32; 3],
         vertical: [f32; 3],
     },
-    /// The seed's thick lens centred at `eye`, its axis towards `target`, focused by `focus` (a
+    /// Rukin's thick lens centred at `eye`, its axis towards `target`, focused by `focus` (a
     /// distance from `eye`) or placed by `sensor` (the sensor's distance behind the front vertex).
     ThickLens {
         eye: [f32; 3],
@@ -51,7 +51,7 @@ pub enum CameraDesc {
         lens: [f32; 6],
         focus: Focus,
     },
-    /// The seed's lens array at `eye` facing `target`: the elemental images behind it.
+    /// Rukin's lens array at `eye` facing `target`: the elemental images behind it.
     LensArray {
         eye: [f32; 3],
         target: [f32; 3],
