@@ -11,7 +11,8 @@
 // sphere around the box to random points inside it (incoherent). Directions are unit length.
 // Each measurement runs N rounds (default 5), alternating the engines within a round so that a
 // busy machine slows both alike; the table gives medians. three-mesh-bvh is built with its SAH
-// strategy (kdray builds an SAH kd-tree), and its default CENTER build is timed too.
+// strategy (kdray builds an SAH kd-tree), and its default CENTER build is timed too. Both are
+// warmed up first (below).
 import { performance } from 'node:perf_hooks';
 import os from 'node:os';
 import * as THREE from 'three';
@@ -57,6 +58,24 @@ function geometryOf({ positions, indices }) {
 }
 
 await init();
+// Warm-up, untimed: V8 first runs WebAssembly (and JavaScript) through its baseline compiler and
+// tiers hot functions up in the background; on a loaded machine the first builds of the bunny
+// took 8× as long as later ones (204 ms, then 24–25 ms). Both engines get the same warm-up.
+{
+  const m = bunny();
+  const rs = randomRays(m.positions, 20000, 99);
+  for (let w = 0; w < 5; w++) {
+    const s = await Scene.build(m.positions, m.indices);
+    const peer = new MeshBVH(geometryOf(m), { strategy: SAH });
+    new MeshBVH(geometryOf(m), { strategy: CENTER });
+    s.raycastMany(rs);
+    for (let i = 0; i < 20000; i++) {
+      s.raycast(rs.subarray(8 * i, 8 * i + 3), rs.subarray(8 * i + 3, 8 * i + 6));
+      peer.raycastFirst(new THREE.Ray(new THREE.Vector3(rs[8 * i], rs[8 * i + 1], rs[8 * i + 2]), new THREE.Vector3(rs[8 * i + 3], rs[8 * i + 4], rs[8 * i + 5])), THREE.DoubleSide);
+    }
+    s.dispose();
+  }
+}
 const rows = [];
 for (const name of meshNames) {
   const mesh = name === 'bunny' ? bunny() : fetched(name);
