@@ -197,6 +197,10 @@ impl Prepared {
             (None, None) => ProgressBar::new(pixels * u64::from(plan.stop.spp)),
             _ => ProgressBar::no_length(),
         };
+        // Hidden before anything is set: a message or style set first would draw once.
+        if !show_bar {
+            bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+        }
         bar.set_message(format!("rendering {}", self.file.path.display()));
         let template = if bar.length().is_some() {
             "{msg} [{bar:30}] {percent}% {elapsed} (eta {eta})"
@@ -204,9 +208,6 @@ impl Prepared {
             "{msg} {spinner} {pos} samples {elapsed}"
         };
         bar.set_style(ProgressStyle::with_template(template).expect("valid template"));
-        if !show_bar {
-            bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-        }
         let result = with_progress(
             &bar,
             || done.load(Ordering::Relaxed),

@@ -43,6 +43,16 @@ impl Rect {
         self.left >= o.left && self.right <= o.right && self.top >= o.top && self.bottom <= o.bottom
     }
 
+    /// The box grown by `dx` pixels left and right and `dy` up and down.
+    fn grown(&self, dx: i32, dy: i32) -> Self {
+        Self {
+            left: self.left - dx,
+            top: self.top - dy,
+            right: self.right + dx,
+            bottom: self.bottom + dy,
+        }
+    }
+
     /// The squared distance from `(x, y)` to the nearest point of the box.
     pub fn distance2(&self, (x, y): (i32, i32)) -> i64 {
         let dx = i64::from((self.left - x).max(x - self.right).max(0));
@@ -62,6 +72,10 @@ pub struct Placed {
 
 /// The point markers' radius in pixels, with a margin that keeps text off them.
 pub const MARKER: i32 = 7;
+
+/// The least space between two labels, in pixels (horizontal, vertical): two labels that touch
+/// read as one ("x4, 9.76% lostscalar, 9.76% lost", seen before this gap).
+const GAP: (i32, i32) = (8, 2);
 
 /// Gaps, in pixels, between a point and its label's nearest edge that are tried in turn: the
 /// first is "beside the point", the others need a leader line.
@@ -110,7 +124,7 @@ pub fn place(
                 r.inside(&bounds)
                     && unambiguous
                     && !markers.iter().any(|m| m.overlaps(&r))
-                    && !taken.iter().any(|t| t.overlaps(&r))
+                    && !taken.iter().any(|t| t.grown(GAP.0, GAP.1).overlaps(&r))
             });
         let (rect, d) = free.unwrap_or((Rect::at(px + MARKER + 2, py - hi / 2, (w, h)), 0));
         taken.push(rect);
@@ -143,7 +157,10 @@ mod tests {
                 );
             }
             for (j, o) in rects.iter().enumerate().take(i) {
-                assert!(!r.overlaps(o), "labels {i} and {j} collide");
+                assert!(
+                    !r.overlaps(&o.grown(GAP.0, GAP.1)),
+                    "labels {i} and {j} collide or touch"
+                );
             }
             // Its own point is the nearest to the label's box of all points, unless it needed a
             // leader line (which then shows where it belongs).
