@@ -102,7 +102,8 @@ pub(crate) fn check_geometry(path: &Path, g: &Geometry) -> Result<()> {
 /// What the builder and the flat format need of any geometry, meshes and scenes alike, checked
 /// before a build so that the error names the input (not the output it would have been written
 /// to): finite vertices whose edges `v1 − v0`, `v2 − v0` are finite too (vertices ±3e38 apart
-/// overflow f32), spheres whose box `c ± r` is finite, attribute lists as long as the triangles.
+/// overflow f32) and whose cross product leaves the parallel threshold finite
+/// (`Triangle::is_too_large`), spheres whose box `c ± r` is finite, attribute lists as long as the triangles.
 ///
 /// # Errors
 /// The first primitive that breaks a rule, by index.
@@ -123,6 +124,17 @@ pub fn check_buildable(path: &Path, g: &Geometry) -> Result<()> {
         .position(|t| !((t[1] - t[0]).is_finite() && (t[2] - t[0]).is_finite()))
     {
         let msg = format!("triangle {i}: its edges overflow f32 (vertices too far apart)");
+        return Err(Error::new(path, msg));
+    }
+    if let Some(i) = g
+        .triangles
+        .iter()
+        .position(|t| kdray_core::Triangle::from_vertices(t[0], t[1], t[2]).is_too_large())
+    {
+        let msg = format!(
+            "triangle {i} is too large for f32 arithmetic: its edges' cross product reaches \
+             7.7e25 (edges beyond about 8e12); scale the scene down"
+        );
         return Err(Error::new(path, msg));
     }
     if let Some(i) = g.spheres.iter().position(|&(c, r)| {
