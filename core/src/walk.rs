@@ -19,8 +19,12 @@
 //! [`crate::blocked::walk::Blocks`]); the one-ray walk and the interleaved driver are generic over
 //! it.
 
-use crate::format::{MAX_DEPTH, Scene};
+use crate::format::{LeafPrims, MAX_DEPTH, Scene};
+use crate::group::Group;
 use crate::ray::{Hit, Ray};
+use crate::simd::f32x4;
+use crate::simd::group::{closest_in_group, intersect_group_watertight};
+use crate::simd::kernels::PrimHits;
 use crate::traverse::{Contents, entry_interval, entry_with_slack, widen};
 use crate::watertight::{self, Shear};
 use glam::Vec3;
@@ -32,7 +36,7 @@ type StackItem = (u32, f32, f32);
 pub trait Query {
     /// Tests a leaf's primitives; returns the closest candidate's `t` so far (the walk skips a
     /// pending node entered beyond it) and whether to stop at once.
-    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: &[u32]) -> (f32, bool);
+    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool);
 }
 
 /// The closest-hit query: the hit so far, and the ray with `tmax` shrunk to it.
@@ -63,8 +67,18 @@ impl Closest {
 
 impl Query for Closest {
     #[inline(always)]
-    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: &[u32]) -> (f32, bool) {
-        for &prim in prims {
+    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
+        if let LeafPrims::Groups(groups) = prims {
+            for g in groups {
+                let found = intersect_group::<C>(g, &self.query, &self.shear);
+                if let Some((t, u, v, prim)) = closest_in_group(g, &found) {
+                    self.query.tmax = t;
+                    self.best = Hit { t, prim, u, v };
+                }
+            }
+            return (self.query.tmax, false);
+        }
+        for &prim in prims.listed() {
             if let Some((t, u, v)) =
                 scene.intersect_prim_sheared::<C>(prim, &self.query, &self.shear)
             {
@@ -104,9 +118,15 @@ impl Occlusion {
 
 impl Query for Occlusion {
     #[inline(always)]
-    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: &[u32]) -> (f32, bool) {
+    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
         let (ray, shear) = (&self.ray, &self.shear);
-        self.found = prims.iter().any(|&prim| {
+        if let LeafPrims::Groups(groups) = prims {
+            self.found = groups
+                .iter()
+                .any(|g| intersect_group::<C>(g, ray, shear).mask.any());
+            return (self.ray.tmax, self.found);
+        }
+        self.found = prims.listed().iter().any(|&prim| {
             scene
                 .intersect_prim_sheared::<C>(prim, ray, shear)
                 .is_some()
@@ -235,17 +255,17 @@ impl Stepper for Scene<'_> {
         if beyond || node.is_leaf() {
             if !beyond {
                 let prims = self.leaf_prims(&node);
-                if HIDE && s.phase == 0 && !prims.as_slice().is_empty() {
+                if HIDE && s.phase == 0 && !prims.is_empty() {
                     s.phase = if self.prefetch_leaf(&node) { 1 } else { 2 };
                     return Progress::Far;
                 }
                 if HIDE && s.phase == 1 {
-                    self.prefetch_prims(prims.as_slice());
+                    self.prefetch_prims(prims.listed());
                     s.phase = 2;
                     return Progress::Far;
                 }
                 s.phase = 0;
-                let (t, stop) = q.leaf::<C>(self, prims.as_slice());
+                let (t, stop) = q.leaf::<C>(self, prims);
                 s.best_t = t;
                 if stop {
                     return Progress::Done;
@@ -359,6 +379,16 @@ fn walk_to_end<W: Stepper, C: Contents, Q: Query>(layout: &W, ray: &Ray, query: 
     let mut state = W::empty_state();
     if layout.begin::<C>(ray, &mut state) {
         while layout.step::<C, Q, false>(&mut state, query) != Progress::Done {}
+    }
+}
+
+/// One ray against a group of four triangles in `C`'s mode ([`crate::simd::group`]).
+#[inline(always)]
+fn intersect_group<C: Contents>(g: &Group, ray: &Ray, shear: &Shear) -> PrimHits<f32x4> {
+    if C::WATERTIGHT {
+        intersect_group_watertight(g, ray, shear)
+    } else {
+        crate::simd::group::intersect_group(g, ray)
     }
 }
 

@@ -6,6 +6,7 @@ use crate::build::{BuildNode, BuildParams, Tree};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header, stride};
+use kdray_core::group;
 use kdray_core::node::Node;
 use kdray_core::{Scene, Triangle};
 use std::io::Write;
@@ -23,7 +24,20 @@ pub enum Layout {
     Blocked,
 }
 
-/// [`serialize_as`] in the default [`Layout`].
+/// How a leaf of several triangles holds them: as a run of the index list, or inline in
+/// struct-of-arrays groups of four (`kdray_core::group`), which the single-ray walk tests four at
+/// a time.
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Leaves {
+    /// Primitive ids in the index list (any scene).
+    #[default]
+    List,
+    /// Triangles in groups of four (a scene of triangles only).
+    Groups,
+}
+
+/// [`serialize_as`] in the default [`Layout`] and [`Leaves`].
 ///
 /// # Errors
 /// See [`serialize_as`].
@@ -32,7 +46,7 @@ pub fn serialize(
     geom: &Geometry,
     build_ms: f32,
 ) -> core::result::Result<Vec<u32>, String> {
-    serialize_as(tree, geom, build_ms, Layout::default())
+    serialize_as(tree, geom, build_ms, Layout::default(), Leaves::default())
 }
 
 /// Flattens `tree` in depth-first order (below child first: the order `Scene::from_words`
@@ -40,13 +54,22 @@ pub fn serialize(
 /// scene needs.
 ///
 /// # Errors
-/// A tree too large for the node fields (2³⁰ nodes or primitives in one leaf) or the blocks.
+/// A tree too large for the node fields (2³⁰ nodes or primitives in one leaf) or the blocks;
+/// [`Leaves::Groups`] for a scene with spheres.
 pub fn serialize_as(
     tree: &Tree,
     geom: &Geometry,
     build_ms: f32,
     layout: Layout,
+    leaves: Leaves,
 ) -> core::result::Result<Vec<u32>, String> {
+    if leaves == Leaves::Groups && !geom.spheres.is_empty() {
+        return Err(
+            "triangle groups (--leaves groups) need a scene of triangles only; \
+                    this one has spheres: use --leaves list"
+                .to_string(),
+        );
+    }
     let mut nodes: Vec<Node> = Vec::new();
     let mut indices: Vec<u32> = Vec::new();
     let depth = flatten(&tree.root, &mut nodes, &mut indices)?;
@@ -58,6 +81,10 @@ pub fn serialize_as(
     let reordered = input_ids.as_ref().map(|ids| reorder(geom, ids));
     let geom = reordered.as_ref().unwrap_or(geom);
     let n_tris = geom.triangles.len();
+    let groups = match leaves {
+        Leaves::List => Vec::new(),
+        Leaves::Groups => to_groups(&mut nodes, &mut indices, geom),
+    };
     let mut c = 0;
     if n_tris > 0 {
         c |= contents::TRIANGLES;
@@ -164,6 +191,15 @@ pub fn serialize_as(
         );
         words[header::BLOCK_COUNT] = blocks.len() as u32;
     }
+    if !groups.is_empty() {
+        c |= contents::GROUPS;
+        section(
+            &mut words,
+            header::GROUPS_OFFSET,
+            &mut groups.iter().flatten().copied(),
+        );
+        words[header::GROUP_COUNT] = groups.len() as u32;
+    }
     let total =
         u32::try_from(words.len()).map_err(|_| "scene larger than 2^32 words".to_string())?;
     words[header::MAGIC] = format::MAGIC;
@@ -225,6 +261,32 @@ fn leaf_order(nodes: &mut [Node], indices: &mut [u32], n_tris: usize) -> Option<
     }
     let identity = input_ids.iter().enumerate().all(|(i, &p)| i as u32 == p);
     (!identity).then_some(input_ids)
+}
+
+/// Moves the leaves' triangles from the index list (emptied) into groups of four, in node order,
+/// each leaf of several triangles then naming its first group (`kdray_core::group`). `geom` is in
+/// storage order, the order the ids name.
+fn to_groups(nodes: &mut [Node], indices: &mut Vec<u32>, geom: &Geometry) -> Vec<group::Group> {
+    let mut groups = Vec::new();
+    for node in nodes
+        .iter_mut()
+        .filter(|n| n.is_leaf() && n.prim_count() > 1)
+    {
+        let (start, n) = (node.payload() as usize, node.prim_count());
+        *node = Node::leaf(n, groups.len() as u32);
+        for chunk in indices[start..start + n as usize].chunks(group::WIDTH) {
+            let lanes: Vec<group::Lane> = chunk
+                .iter()
+                .map(|&id| {
+                    let v = geom.triangles[id as usize];
+                    (id, v, Triangle::from_vertices(v[0], v[1], v[2]).min_det2())
+                })
+                .collect();
+            groups.push(group::pack(&lanes));
+        }
+    }
+    indices.clear();
+    groups
 }
 
 /// `geom` with its triangles (and their normals, texture coordinates and materials) in the order

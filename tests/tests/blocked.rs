@@ -7,7 +7,7 @@
 use glam::Vec3;
 use kdray::Geometry;
 use kdray::build::{BuildParams, build};
-use kdray::flat::{Layout, serialize_as};
+use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::blocked::{self, AXES_WORD, BLOCK_WORDS, REFS_WORD, kind};
 use kdray_core::format::{FormatError, VERSION, contents, header, seal};
 use kdray_core::stream::{self, Config, InFlight, Packets};
@@ -24,7 +24,8 @@ fn both_layouts(geom: &Geometry, intersect_cost: f64) -> (Vec<u32>, Vec<u32>) {
         ..BuildParams::default()
     };
     let tree = build(geom, &params, None).expect("finite geometry builds");
-    let words = |layout| serialize_as(&tree, geom, 0.0, layout).expect("fits the format");
+    let words =
+        |layout| serialize_as(&tree, geom, 0.0, layout, Leaves::List).expect("fits the format");
     (words(Layout::Nodes), words(Layout::Blocked))
 }
 

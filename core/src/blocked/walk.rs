@@ -27,7 +27,7 @@
 //! together"), as switching rays at far descents did for the node walk.
 
 use super::{AXES_WORD, Block, is_empty_at, is_interior, kind, reference_at};
-use crate::format::{MAX_DEPTH, Scene};
+use crate::format::{LeafPrims, MAX_DEPTH, Scene};
 use crate::ray::Ray;
 use crate::traverse::{Contents, entry_interval, entry_with_slack, widen};
 use crate::walk::{Progress, Query, Stepper};
@@ -221,8 +221,7 @@ impl<'s> Stepper for Blocks<'_, 's> {
         let r = reference_at(block, p);
         let value = r >> 2;
         let one = [value];
-        let leaf;
-        let prims: &[u32] = match r & 3 {
+        let prims: LeafPrims = match r & 3 {
             kind::BLOCK => {
                 s.index = value >> 3;
                 s.block = &blocks[s.index as usize];
@@ -243,13 +242,13 @@ impl<'s> Stepper for Blocks<'_, 's> {
                     s.phase = if list { phase::LIST } else { phase::TEST };
                     return Progress::Far;
                 }
-                leaf = scene.leaf_prims(&node);
+                let leaf = scene.leaf_prims(&node);
                 if HIDE && s.phase == phase::LIST {
-                    scene.prefetch_prims(leaf.as_slice());
+                    scene.prefetch_prims(leaf.listed());
                     s.phase = phase::TEST;
                     return Progress::Far;
                 }
-                leaf.as_slice()
+                leaf
             }
             kind::ONE => {
                 if HIDE && s.phase == phase::START {
@@ -257,9 +256,9 @@ impl<'s> Stepper for Blocks<'_, 's> {
                     s.phase = phase::TEST;
                     return Progress::Far;
                 }
-                &one[..]
+                LeafPrims::One(Some(one[0]))
             }
-            _ => &[],
+            _ => LeafPrims::One(None),
         };
         s.phase = phase::START;
         let (closest, stop) = q.leaf::<C>(scene, prims);

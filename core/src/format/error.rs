@@ -69,6 +69,11 @@ pub enum FormatError {
     UnusedIndices {
         from: u32,
     },
+    /// A leaf's triangle group is not the one its ids' triangle records make
+    /// ([`crate::group`]): different vertices or threshold, or bad padding.
+    BadGroup {
+        node: u32,
+    },
     /// An input id is not below the triangle count.
     BadInputId {
         triangle: u32,
@@ -151,6 +156,10 @@ impl core::fmt::Display for FormatError {
             Self::IndexOrder { node } => write!(
                 f,
                 "node {node}: index-list range is shared or out of order (leaves must use the list in turn)"
+            ),
+            Self::BadGroup { node } => write!(
+                f,
+                "node {node}: a triangle group differs from the triangles it names"
             ),
             Self::UnusedIndices { from } => {
                 write!(

@@ -4,10 +4,10 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         8 (7 stored `+inf` as the threshold of a triangle whose `|e1 × e2|²`
-//!                     overflows f32, so fast mode never hit it; 6 had no blocks section, 5 stored
-//!                     edges, not vertices, 4 had no checksum: files written before are refused,
-//!                     rebuild them)
+//!  1  VERSION         9 (8 had no groups section; 7 stored `+inf` as the threshold of a
+//!                     triangle whose `|e1 × e2|²` overflows f32, so fast mode never hit it; 6 had
+//!                     no blocks section, 5 stored edges, not vertices, 4 had no checksum: files
+//!                     written before are refused, rebuild them)
 //!  2  CONTENTS        bit set, see `contents::*`: which sections are present
 //!  3  TOTAL_WORDS     length of the whole array in words (catches truncation and trailing data)
 //!  4  NODE_COUNT      kd-tree nodes (≥ 1; 2 words each)
@@ -28,7 +28,9 @@
 //! 24..26 CHECKSUM     [`checksum`] of all words, low word first (see "Corruption" below)
 //! 26  BLOCK_COUNT     blocks of the blocked tree (0 when absent)
 //! 27  BLOCKS_OFFSET   … of the blocks section (0 when absent; a multiple of 16 words)
-//! 28..32              reserved, must be 0
+//! 28  GROUP_COUNT     triangle groups (0 when absent)
+//! 29  GROUPS_OFFSET   … of the groups section (0 when absent)
+//! 30..32              reserved, must be 0
 //! ```
 //! Sections start on multiples of 8 words (32 bytes), lie inside `HEADER_WORDS .. TOTAL_WORDS`
 //! and do not overlap. A section the scene does not need is absent (offset 0, bit clear), not
@@ -37,7 +39,8 @@
 //! # Sections
 //! - **Nodes**, 2 words each, pbrt-v3's `KdAccelNode` layout plus two bits marking empty children
 //!   ([`Node`]).
-//! - **Indices**: `u32` primitive ids, referenced by leaves with more than one primitive. The
+//! - **Indices**: `u32` primitive ids, referenced by leaves with more than one primitive (in a
+//!   file without groups; with them, INDEX_COUNT is 0 and the list absent). The
 //!   leaves with an index list use it in turn: in node order, each one's range starts where the
 //!   previous one's ended, the first at 0, and the last ends at INDEX_COUNT (what the serializer
 //!   has always written: it appends a leaf's ids as it flattens the tree in pre-order). So no two
@@ -75,6 +78,15 @@
 //!   ([`crate::stream`]) walk it; the packet walks use the nodes. The section starts on a multiple of 16 words, so the blocks
 //!   are cache lines when the words are 64-byte aligned (the host aligns them,
 //!   `kdray::flat::Aligned`).
+//! - **Groups** (CONTENTS bit `GROUPS`, version 9; only in a scene of triangles alone): a leaf's
+//!   triangles stored inline, four to a 48-word group in struct-of-arrays lanes
+//!   ([`crate::group`], where the layout is documented), so that the single-ray walk tests one ray
+//!   against four triangles at once with no index list in between. A leaf of `n ≥ 2` triangles
+//!   then has as payload the first of its `⌈n/4⌉` groups instead of an index-list offset, and the
+//!   leaves' groups tile the section in node order, as index-list ranges do. Each lane is a
+//!   triangle of the triangles section, bit for bit (validation rebuilds every group from its ids),
+//!   so the walks return the hits of the index-list layout; the packet walks read the same ids
+//!   and test the triangles section.
 //!
 //! # Cost of validation
 //! [`Scene::from_words`] takes time linear in the number of words `W`, whatever they say, and
@@ -82,7 +94,8 @@
 //! each triangle, sphere, normal, texture coordinate, material and input id is checked once; the
 //! tree walk visits each node once (the pre-order rule) and does O(1) work per node, because the
 //! index-list entries are checked once in one pass and a leaf only compares its range with where
-//! the previous leaf's ended (the tiling rule under **Indices**); the blocks walk
+//! the previous leaf's ended (the tiling rule under **Indices**; a leaf's groups the same way,
+//! each group rebuilt from four triangle records and compared once); the blocks walk
 //! ([`crate::blocked::validate`]) takes one step per node and checks each block's layout once.
 //! In all about `c · W` word reads with a small constant `c` (the tests count them:
 //! `tests/tests/format.rs`). Before the tiling rule, 131,072 leaves naming one 500,000-entry
@@ -110,6 +123,7 @@
 //!   time, to hits that are wrong for the intended scene but consistent for the one stored.
 
 use crate::blocked::Block;
+use crate::group::{self, Group};
 use crate::node::{LEAF, Node};
 use crate::sphere::Sphere;
 use crate::triangle::Triangle;
@@ -118,7 +132,7 @@ use glam::Vec3;
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 8;
+pub const VERSION: u32 = 9;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).
@@ -152,8 +166,10 @@ pub mod header {
     pub const CHECKSUM: usize = 24;
     pub const BLOCK_COUNT: usize = 26;
     pub const BLOCKS_OFFSET: usize = 27;
+    pub const GROUP_COUNT: usize = 28;
+    pub const GROUPS_OFFSET: usize = 29;
     /// First reserved word; `RESERVED .. HEADER_WORDS` must be zero.
-    pub const RESERVED: usize = 28;
+    pub const RESERVED: usize = 30;
 }
 
 /// The CONTENTS bits.
@@ -167,8 +183,11 @@ pub mod contents {
     pub const INPUT_IDS: u32 = 1 << 5;
     /// The tree is also stored cache-line-blocked (the blocks section, [`crate::blocked`]).
     pub const BLOCKED: u32 = 1 << 6;
+    /// Leaves hold their triangles in groups of four (the groups section, [`crate::group`]).
+    pub const GROUPS: u32 = 1 << 7;
     /// Every bit this version defines.
-    pub const ALL: u32 = TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS | INPUT_IDS | BLOCKED;
+    pub const ALL: u32 =
+        TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS | INPUT_IDS | BLOCKED | GROUPS;
 }
 
 /// Words per element of each section.
@@ -179,6 +198,7 @@ pub mod stride {
     pub const NORMALS: usize = 9;
     pub const UVS: usize = 6;
     pub const BLOCK: usize = crate::blocked::BLOCK_WORDS;
+    pub const GROUP: usize = crate::group::GROUP_WORDS;
 }
 
 mod checksum;
@@ -204,6 +224,7 @@ pub struct Scene<'a> {
     materials: &'a [u32],
     input_ids: &'a [u32],
     blocks: &'a [Block],
+    groups: &'a [Group],
 }
 
 impl<'a> Scene<'a> {
@@ -289,7 +310,7 @@ impl<'a> Scene<'a> {
         Node::from_words(self.nodes[i as usize])
     }
 
-    /// The primitive ids of a leaf.
+    /// The primitives of a leaf: its one id, its run of the index list, or its groups.
     #[inline(always)]
     pub fn leaf_prims(&self, node: &Node) -> LeafPrims<'a> {
         match node.prim_count() {
@@ -297,9 +318,19 @@ impl<'a> Scene<'a> {
             1 => LeafPrims::One(Some(node.payload())),
             n => {
                 let start = node.payload() as usize;
-                LeafPrims::Many(&self.indices[start..start + n as usize])
+                if self.groups.is_empty() {
+                    LeafPrims::Many(&self.indices[start..start + n as usize])
+                } else {
+                    LeafPrims::Groups(&self.groups[start..start + group::groups_for(n) as usize])
+                }
             }
         }
+    }
+
+    /// Whether leaves hold their triangles in groups (the groups section is present).
+    #[inline]
+    pub fn has_groups(&self) -> bool {
+        !self.groups.is_empty()
     }
 
     /// Triangle `i` (`i < tri_count`).
@@ -340,6 +371,15 @@ impl<'a> Scene<'a> {
             0 => false,
             1 => {
                 self.prefetch_prims(&[node.payload()]);
+                false
+            }
+            _ if self.has_groups() => {
+                // The first group's three lines (the triangles themselves: no list to wait for).
+                if let Some(g) = self.groups.get(node.payload() as usize) {
+                    for line in g.chunks(16) {
+                        crate::prefetch::t0(&line[0]);
+                    }
+                }
                 false
             }
             _ => {
@@ -419,22 +459,45 @@ impl<'a> Scene<'a> {
     }
 }
 
-/// The primitives of one leaf: none or one stored inline, or a run of the index list.
+/// The primitives of one leaf: none or one stored inline, a run of the index list, or the
+/// leaf's triangle groups.
 #[derive(Clone, Copy, Debug)]
 pub enum LeafPrims<'a> {
     One(Option<u32>),
     Many(&'a [u32]),
+    Groups(&'a [Group]),
 }
 
-impl LeafPrims<'_> {
-    /// The ids as a slice-like iterator.
+impl<'a> LeafPrims<'a> {
+    /// Whether the leaf has no primitive.
     #[inline(always)]
-    pub fn as_slice(&self) -> &[u32] {
+    pub fn is_empty(&self) -> bool {
+        matches!(self, LeafPrims::One(None))
+    }
+
+    /// The ids of a leaf stored as one id or a list (empty for groups: see [`LeafPrims::ids`]).
+    #[inline(always)]
+    pub fn listed(&self) -> &[u32] {
         match self {
             LeafPrims::One(Some(p)) => core::slice::from_ref(p),
-            LeafPrims::One(None) => &[],
             LeafPrims::Many(s) => s,
+            LeafPrims::One(None) | LeafPrims::Groups(_) => &[],
         }
+    }
+
+    /// The leaf's primitive ids in its order, whatever the storage (padding lanes left out).
+    #[inline(always)]
+    pub fn ids(self) -> impl Iterator<Item = u32> + 'a {
+        let (one, list, groups): (Option<u32>, &'a [u32], &'a [Group]) = match self {
+            LeafPrims::One(p) => (p, &[], &[]),
+            LeafPrims::Many(s) => (None, s, &[]),
+            LeafPrims::Groups(g) => (None, &[], g),
+        };
+        let grouped = groups
+            .iter()
+            .flat_map(group::ids)
+            .filter(|&id| id != group::PAD_ID);
+        one.into_iter().chain(list.iter().copied()).chain(grouped)
     }
 }
 

@@ -4,6 +4,7 @@ use super::{
     FormatError, HEADER_WORDS, MAGIC, MAX_DEPTH, SECTION_ALIGN, Scene, VERSION, checksum, contents,
     header, stored_triangle, stored_vertices, stride,
 };
+use crate::group;
 use crate::node::Node;
 use glam::Vec3;
 
@@ -122,12 +123,25 @@ impl<'a> Scene<'a> {
                 stride: stride::BLOCK,
                 bit: contents::BLOCKED,
             },
+            SectionSpec {
+                offset_word: header::GROUPS_OFFSET,
+                count: h(header::GROUP_COUNT) as usize,
+                stride: stride::GROUP,
+                bit: contents::GROUPS,
+            },
         ];
         if contents & contents::BLOCKED == 0 && h(header::BLOCK_COUNT) != 0 {
             return Err(FormatError::BadContents);
         }
+        // Groups hold triangles only, and replace the index list.
+        let grouped = contents & contents::GROUPS != 0;
+        if (!grouped && h(header::GROUP_COUNT) != 0)
+            || (grouped && (n_tris == 0 || n_spheres != 0 || n_indices != 0))
+        {
+            return Err(FormatError::BadContents);
+        }
         // (start, end) of each section, (0, 0) when absent.
-        let mut ranges = [(0usize, 0usize); 9];
+        let mut ranges = [(0usize, 0usize); 10];
         for (range, spec) in ranges.iter_mut().zip(specs.iter()) {
             let offset = h(spec.offset_word) as usize;
             let present = if spec.bit == 0 {
@@ -157,7 +171,7 @@ impl<'a> Scene<'a> {
             }
             *range = (offset, end);
         }
-        // Pairwise overlap test on at most 9 sections: no sort, no allocation.
+        // Pairwise overlap test on at most 10 sections: no sort, no allocation.
         for (i, a) in ranges.iter().enumerate() {
             for b in &ranges[i + 1..] {
                 if a.1 > a.0 && b.1 > b.0 && a.0 < b.1 && b.0 < a.1 {
@@ -190,6 +204,7 @@ impl<'a> Scene<'a> {
             materials: words_of(6),
             input_ids: words_of(7),
             blocks: words_of(8).as_chunks().0,
+            groups: words_of(9).as_chunks().0,
         };
         let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
         let triangles_ok = scene.tris.iter().all(|t| {
@@ -238,7 +253,7 @@ impl<'a> Scene<'a> {
         if let Some(i) = self.indices.iter().position(|&p| p >= n_prims) {
             return Err(FormatError::BadIndex { index: i as u32 });
         }
-        // Where the next leaf with an index list must start.
+        // Where the next leaf with an index list (or groups) must start.
         let mut next_index = 0usize;
         // Pending above-children and their depths; capacity bounds the depth we accept.
         let mut stack: heapless::Vec<(u32, u32), MAX_DEPTH> = heapless::Vec::new();
@@ -281,7 +296,12 @@ impl<'a> Scene<'a> {
         if next != n_nodes {
             return Err(FormatError::BadChild { node: next });
         }
-        if next_index != self.indices.len() {
+        let listed = if self.has_groups() {
+            self.groups.len()
+        } else {
+            self.indices.len()
+        };
+        if next_index != listed {
             return Err(FormatError::UnusedIndices {
                 from: next_index as u32,
             });
@@ -331,6 +351,7 @@ impl<'a> Scene<'a> {
             0 => Ok(()),
             1 if node.payload() < n_prims => Ok(()),
             1 => Err(bad),
+            n if self.has_groups() => self.validate_groups(index, node, n, next_index),
             n => {
                 let start = node.payload() as usize;
                 let end = start.checked_add(n as usize).ok_or(bad)?;
@@ -346,5 +367,45 @@ impl<'a> Scene<'a> {
                 Ok(())
             }
         }
+    }
+
+    /// A leaf's groups ([`crate::group`]): the `⌈n/4⌉` starting at `next_group`, each equal, word
+    /// for word, to the group [`group::pack`] makes of its ids' triangle records (ids below
+    /// TRI_COUNT, the last group's spare lanes padding). Each group is checked once, at the leaf
+    /// that owns it (the groups tile the section in node order).
+    fn validate_groups(
+        &self,
+        index: u32,
+        node: Node,
+        n: u32,
+        next_group: &mut usize,
+    ) -> Result<(), FormatError> {
+        let bad = FormatError::BadPrimitive { node: index };
+        let start = node.payload() as usize;
+        let end = start
+            .checked_add(group::groups_for(n) as usize)
+            .ok_or(bad)?;
+        if end > self.groups.len() {
+            return Err(bad);
+        }
+        if start != *next_group {
+            return Err(FormatError::IndexOrder { node: index });
+        }
+        let mut left = n as usize;
+        for g in &self.groups[start..end] {
+            let real = left.min(group::WIDTH);
+            left -= real;
+            let ids = group::ids(g);
+            let mut lanes = [(0, [Vec3::ZERO; 3], 0.0); group::WIDTH];
+            for (lane, &id) in lanes.iter_mut().zip(&ids[..real]) {
+                let t = self.tris.get(id as usize).ok_or(bad)?;
+                *lane = (id, stored_vertices(t), t[9]);
+            }
+            if group::pack(&lanes[..real]) != *g {
+                return Err(FormatError::BadGroup { node: index });
+            }
+        }
+        *next_group = end;
+        Ok(())
     }
 }

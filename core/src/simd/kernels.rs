@@ -69,23 +69,57 @@ pub fn intersect_triangle_prepared<L: Lanes>(
     if !(min_det2 < f32::INFINITY) {
         return PrimHits::none();
     }
-    let min_det2 = L::splat(min_det2);
-    let (e1, e2) = (Vec3x::splat(tri.e1), Vec3x::splat(tri.e2));
+    let tri_lanes = TriangleLanes {
+        v0: Vec3x::splat(tri.v0),
+        e1: Vec3x::splat(tri.e1),
+        e2: Vec3x::splat(tri.e2),
+        min_det2: L::splat(min_det2),
+    };
+    moller_trumbore_lanes(&tri_lanes, &rays.origin, &rays.dir, rays.tmin, rays.tmax)
+}
 
-    let p = rays.dir.cross(e2);
+/// Triangles in Möller–Trumbore's layout, one per lane (or one in every lane), with their
+/// thresholds [`Triangle::min_det2`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TriangleLanes<L> {
+    pub v0: Vec3x<L>,
+    pub e1: Vec3x<L>,
+    pub e2: Vec3x<L>,
+    pub min_det2: L,
+}
+
+/// Möller–Trumbore lane by lane: lane `i`'s ray (`origin`, `dir`, `(tmin, tmax)`) against lane
+/// `i`'s triangle, the operations of [`Triangle::intersect_prepared`] in its order. Serves both a
+/// packet of rays against one triangle (the triangle splat) and one ray against a group of
+/// triangles (the ray splat, [`super::group`]).
+#[inline(always)]
+pub(crate) fn moller_trumbore_lanes<L: Lanes>(
+    tri: &TriangleLanes<L>,
+    origin: &Vec3x<L>,
+    dir: &Vec3x<L>,
+    tmin: L,
+    tmax: L,
+) -> PrimHits<L> {
+    let TriangleLanes {
+        v0,
+        e1,
+        e2,
+        min_det2,
+    } = *tri;
+    let p = dir.cross(e2);
     let det = e1.dot(p);
     let mut mask = (det * det).gt(min_det2);
     let inv = det.recip();
-    let s = rays.origin - Vec3x::splat(tri.v0);
+    let s = *origin - v0;
     let a = s.dot(p) * inv;
     let one = L::splat(1.0);
     let zero = L::splat(0.0);
     mask = mask & a.ge(zero) & a.le(one);
     let q = s.cross(e1);
-    let b = rays.dir.dot(q) * inv;
+    let b = dir.dot(q) * inv;
     mask = mask & b.ge(zero) & (a + b).le(one);
     let t = e2.dot(q) * inv;
-    mask = mask & t.gt(rays.tmin) & t.lt(rays.tmax);
+    mask = mask & t.gt(tmin) & t.lt(tmax);
     PrimHits {
         mask,
         t,

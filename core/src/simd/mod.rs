@@ -6,6 +6,8 @@
 //! - [`kernels`]: packet Möller–Trumbore and packet sphere, each matching its scalar twin lane by
 //!   lane bit for bit, and [`record_closest`], the closest-hit update.
 //! - [`watertight`]: the packet watertight kernel, matching [`crate::watertight`] lane by lane.
+//! - [`group`]: one ray against a group of four triangles ([`crate::group`]), the same lane
+//!   arithmetic with the ray splat and the triangles in the lanes.
 //!
 //! `wide` chooses SSE, AVX, NEON, simd128 or a portable fallback at compile time from the enabled
 //! target features ([`crate::isa::name`] reports which); an 8-wide packet on a build without AVX
@@ -27,6 +29,7 @@
 //! assert_eq!((out[2].t, out[2].prim), (1.0, 7));
 //! ```
 
+pub mod group;
 pub mod kernels;
 pub mod lanes;
 pub mod packet;

@@ -151,7 +151,7 @@ impl Scene<'_> {
             let node = self.node(index);
             if alive.any() && node.is_leaf() {
                 rays.active = alive;
-                for &prim in self.leaf_prims(&node).as_slice() {
+                for prim in self.leaf_prims(&node).ids() {
                     let found = self.intersect_prim_packet::<C, L>(prim, rays, shear);
                     if ANY {
                         let bits = (found.mask & rays.active).bitmask();

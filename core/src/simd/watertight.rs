@@ -96,15 +96,33 @@ pub fn intersect_triangle_watertight_prepared<L: Lanes>(
     if !(min_det2 < f32::INFINITY) {
         return PrimHits::none();
     }
-    let [sx, sy, sz] = shear.s;
     let rel = verts.map(|v| shear.relative(v));
+    let all = L::splat(0.0).eq(L::splat(0.0));
+    watertight_lanes(rel, shear.s, rays.tmin, rays.tmax, all)
+}
+
+/// The watertight test lane by lane from each lane's vertices relative to its ray's origin,
+/// permuted (`rel[vertex] = [v[kx] − o[kx], v[ky] − o[ky], v[kz] − o[kz]]`), and its ray's
+/// `[Sx, Sy, Sz]`: the operations of [`crate::watertight::intersect_sheared`] after its
+/// subtraction, in its order. Lanes outside `valid` never hit and are never rerun in f64 (a
+/// group's padding lanes, [`super::group`]). Serves a packet against one triangle and one ray
+/// against a group of triangles alike.
+#[inline(always)]
+pub(crate) fn watertight_lanes<L: Lanes>(
+    rel: [[L; 3]; 3],
+    s: [L; 3],
+    tmin: L,
+    tmax: L,
+    valid: L,
+) -> PrimHits<L> {
+    let [sx, sy, sz] = s;
     let sheared = rel.map(|a| [a[0] - sx * a[2], a[1] - sy * a[2]]);
     let [[ax, ay], [bx, by], [cx, cy]] = sheared;
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
     let zero = L::splat(0.0);
-    let rerun = (u.eq(zero) | v.eq(zero) | w.eq(zero)).bitmask();
+    let rerun = ((u.eq(zero) | v.eq(zero) | w.eq(zero)) & valid).bitmask();
     if rerun != 0 {
         // Paper §3.5, lane by lane: rare (a ray through an edge or a vertex in f32).
         let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
@@ -124,7 +142,7 @@ pub fn intersect_triangle_watertight_prepared<L: Lanes>(
     let big_t = u * z[0] + v * z[1] + w * z[2];
     let inv = det.recip();
     let t = big_t * inv;
-    let mask = inside & det.abs().gt(zero) & t.gt(rays.tmin) & t.lt(rays.tmax);
+    let mask = valid & inside & det.abs().gt(zero) & t.gt(tmin) & t.lt(tmax);
     PrimHits {
         mask,
         t,

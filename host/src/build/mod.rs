@@ -36,6 +36,9 @@ pub struct BuildParams {
     pub max_depth: Option<u32>,
     /// Build subtrees on the rayon pool (with the `cli` feature; one thread without it).
     pub parallel: bool,
+    /// Primitives one leaf test takes: 1, or 4 for leaves stored in triangle groups
+    /// (`kdray::flat::Leaves::Groups`), which the SAH then prices in groups.
+    pub group: usize,
 }
 
 impl Default for BuildParams {
@@ -47,6 +50,7 @@ impl Default for BuildParams {
             max_prims: 1,
             max_depth: None,
             parallel: true,
+            group: 1,
         }
     }
 }
@@ -70,6 +74,7 @@ impl BuildParams {
             traversal: self.traversal_cost,
             intersect: self.intersect_cost,
             empty_bonus: self.empty_bonus,
+            group: self.group.max(1),
         }
     }
 }
@@ -279,12 +284,21 @@ fn build_node(
     let best = (0..3)
         .filter_map(|axis| events::best_split_on_axis(&events[axis], n, &bounds, axis, &ctx.costs))
         .min_by(|a, b| a.cost.total_cmp(&b.cost));
-    let leaf_cost = ctx.costs.intersect * n as f64;
+    let leaf_cost = ctx.costs.intersect * ctx.costs.tests(n);
     let Some(split) = best else {
         return make_leaf(ctx, prims, weight);
     };
     let bad_refines = bad_refines + u32::from(split.cost > leaf_cost);
-    if (split.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= 3 {
+    // Priced in groups, a leaf that fits the groups it already pays for stops as soon as no split
+    // beats it (Embree's leaf SAH); pbrt's allowance of bad refines was made for per-primitive
+    // leaves.
+    let grouped_stop = ctx.costs.group > 1
+        && split.cost >= leaf_cost
+        && n <= std::env::var("KDRAY_GSTOP")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(16);
+    if grouped_stop || (split.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= 3 {
         return make_leaf(ctx, prims, weight);
     }
     let (below_box, above_box) = bounds.split(split.axis, split.pos);

@@ -33,6 +33,11 @@ pub struct BuildArgs {
     /// into 64-byte blocks of three levels, which single rays walk; format v7).
     #[arg(long, value_enum, default_value_t = flat::Layout::default())]
     pub layout: flat::Layout,
+    /// How a leaf holds its triangles: `list` (ids in an index list; any scene), or `groups`
+    /// (inline, four to a 192-byte group, tested four at a time by single rays, with the SAH
+    /// priced in groups; triangles-only scenes; format v9).
+    #[arg(long, value_enum, default_value_t = flat::Leaves::default())]
+    pub leaves: flat::Leaves,
 }
 
 impl Default for BuildArgs {
@@ -45,6 +50,7 @@ impl Default for BuildArgs {
             max_depth: p.max_depth,
             serial_build: !p.parallel,
             layout: flat::Layout::default(),
+            leaves: flat::Leaves::default(),
         }
     }
 }
@@ -57,6 +63,10 @@ impl BuildArgs {
             empty_bonus: self.empty_bonus,
             max_depth: self.max_depth,
             parallel: !self.serial_build,
+            group: match self.leaves {
+                flat::Leaves::List => 1,
+                flat::Leaves::Groups => kdray_core::group::WIDTH,
+            },
             ..BuildParams::default()
         }
     }
@@ -92,6 +102,7 @@ pub fn build_words(
     geom: &Geometry,
     params: &BuildParams,
     layout: flat::Layout,
+    leaves: flat::Leaves,
 ) -> Result<(Vec<u32>, f64)> {
     load::check_buildable(path, geom)?;
     let prims = (geom.triangles.len() + geom.spheres.len()) as u64;
@@ -122,7 +133,7 @@ pub fn build_words(
         },
     );
     let tree = tree.map_err(|e| Error::new(path, e))?;
-    let words = flat::serialize_as(&tree, geom, build_ms as f32, layout)
+    let words = flat::serialize_as(&tree, geom, build_ms as f32, layout, leaves)
         .map_err(|e| Error::new(path, e))?;
     if let Err(e) = Scene::from_words(&words) {
         let msg = format!("the built tree does not validate ({e}): please report this input");
@@ -145,7 +156,7 @@ pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)
         return Ok((words, ms));
     }
     let geom = input::load_input(path)?;
-    build_words(path, &geom, &args.params(), args.layout)
+    build_words(path, &geom, &args.params(), args.layout, args.leaves)
 }
 
 /// `kdray build`: the tree into `out` and, for a scene file, its render description into
@@ -162,7 +173,7 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
         Some(file) => file.geometry()?,
         None => input::load_input(input)?,
     };
-    let (words, build_ms) = build_words(input, &geom, &args.params(), args.layout)?;
+    let (words, build_ms) = build_words(input, &geom, &args.params(), args.layout, args.leaves)?;
     let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
     // Both outputs are made, then staged, before either is put in place: a description that
     // fails leaves no tree behind, and the tree appears only with its description.

@@ -145,6 +145,7 @@ impl Prepared {
             &geom,
             &BuildParams::default(),
             kdray::flat::Layout::default(),
+            kdray::flat::Leaves::default(),
         )?;
         let materials: Vec<Material> = file.materials.iter().map(|m| m.to_core()).collect();
         let scene = Scene::from_words(&words).map_err(|e| Error::new(&file.path, e.to_string()))?;

@@ -1,0 +1,304 @@
+//! Triangle groups (format v9's groups section): one ray against four triangles matches the
+//! scalar kernels lane by lane, bit for bit, in both modes; a tree stored with groups returns
+//! exactly the hits of the same tree stored with an index list, for every walk (one ray, blocks,
+//! interleaved, stream, packets), closest and any hit, fast and watertight; validation rebuilds
+//! each group and refuses any other; the serializer refuses groups for a scene with spheres.
+
+use glam::Vec3;
+use kdray::Geometry;
+use kdray::build::{BuildParams, build};
+use kdray::flat::{Layout, Leaves, serialize_as};
+use kdray_core::format::{FormatError, contents, header, seal};
+use kdray_core::group::{self, GROUP_WORDS, PAD_ID, slot};
+use kdray_core::simd::group::{closest_in_group, intersect_group, intersect_group_watertight};
+use kdray_core::simd::{HitPacket, RayPacket, f32x8};
+use kdray_core::stream::{self, Config, InFlight, Packets};
+use kdray_core::traverse::Mode;
+use kdray_core::watertight::{Shear, intersect_sheared};
+use kdray_core::{Hit, Ray, Scene, Triangle};
+use kdray_tests::strategies::{any_vec3, grid_geometry, grid_point, traversal_ray, vec3};
+use proptest::prelude::*;
+
+fn bits(h: &Hit) -> [u32; 4] {
+    [h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()]
+}
+
+/// One tree over `geom` (priced per triangle or in groups), stored with an index list and with
+/// groups, in `layout`.
+fn both_leaves(
+    geom: &Geometry,
+    intersect_cost: f64,
+    group: usize,
+    layout: Layout,
+) -> [Vec<u32>; 2] {
+    let params = BuildParams {
+        intersect_cost,
+        parallel: false,
+        group,
+        ..BuildParams::default()
+    };
+    let tree = build(geom, &params, None).expect("finite geometry builds");
+    [Leaves::List, Leaves::Groups]
+        .map(|leaves| serialize_as(&tree, geom, 0.0, layout, leaves).expect("fits the format"))
+}
+
+/// A triangle of the kernel tests: anywhere, on the grid, or degenerate.
+fn lane_triangle() -> impl Strategy<Value = [Vec3; 3]> {
+    prop_oneof![
+        3 => [vec3(-4.0, 4.0), vec3(-4.0, 4.0), vec3(-4.0, 4.0)],
+        2 => [grid_point(), grid_point(), grid_point()],
+        1 => (grid_point(), grid_point()).prop_map(|(a, b)| [a, b, a + (b - a) * 0.5]),
+        1 => [any_vec3(), any_vec3(), any_vec3()],
+    ]
+    .prop_filter("finite edges", |v| {
+        let t = Triangle::from_vertices(v[0], v[1], v[2]);
+        t.e1.is_finite() && t.e2.is_finite()
+    })
+}
+
+fn lanes_of(tris: &[[Vec3; 3]]) -> Vec<group::Lane> {
+    tris.iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let t = Triangle::from_vertices(v[0], v[1], v[2]);
+            (10 + i as u32, *v, t.min_det2())
+        })
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(2000)))]
+
+    /// Lane `j` of the group kernels is the scalar kernel on triangle `j`: the same hit or miss,
+    /// and `t`, `u`, `v` bit for bit; padding lanes never hit; the pick is what testing the lanes
+    /// in order keeps.
+    #[test]
+    fn group_lanes_match_the_scalar_kernels(
+        tris in prop::collection::vec(lane_triangle(), 1..=4),
+        ray in traversal_ray(),
+    ) {
+        let lanes = lanes_of(&tris);
+        let g = group::pack(&lanes);
+        let shear = Shear::new(ray.dir);
+        let fast = intersect_group(&g, &ray);
+        let tight = intersect_group_watertight(&g, &ray, &shear);
+        let (mut want_fast, mut want_tight) = (None, None);
+        let mut seq = [ray; 2];
+        for j in 0..group::WIDTH {
+            let got = |h: &kdray_core::simd::PrimHits<kdray_core::simd::f32x4>| {
+                (h.mask.to_bitmask() >> j & 1 == 1).then(|| {
+                    let lane = |x: kdray_core::simd::f32x4| x.to_array()[j].to_bits();
+                    [lane(h.t), lane(h.u), lane(h.v)]
+                })
+            };
+            let Some(&(id, v, min_det2)) = lanes.get(j) else {
+                prop_assert_eq!(got(&fast), None, "padding lane {} hit (fast)", j);
+                prop_assert_eq!(got(&tight), None, "padding lane {} hit (watertight)", j);
+                continue;
+            };
+            let tri = Triangle::from_vertices(v[0], v[1], v[2]);
+            let scalar = |r: Option<(f32, f32, f32)>| r.map(|(t, u, w)| [t.to_bits(), u.to_bits(), w.to_bits()]);
+            prop_assert_eq!(got(&fast), scalar(tri.intersect_prepared(&ray, min_det2)), "fast lane {}", j);
+            prop_assert_eq!(got(&tight), scalar(intersect_sheared(&v, min_det2, &ray, &shear)), "watertight lane {}", j);
+            // The lanes one after another, tmax shrinking: what the list layout's leaf keeps.
+            if let Some((t, u, w)) = tri.intersect_prepared(&seq[0], min_det2) {
+                seq[0].tmax = t;
+                want_fast = Some((t, u, w, id));
+            }
+            if let Some((t, u, w)) = intersect_sheared(&v, min_det2, &seq[1], &shear) {
+                seq[1].tmax = t;
+                want_tight = Some((t, u, w, id));
+            }
+        }
+        let key = |h: Option<(f32, f32, f32, u32)>| h.map(|(t, u, v, id)| (t.to_bits(), u.to_bits(), v.to_bits(), id));
+        prop_assert_eq!(key(closest_in_group(&g, &fast)), key(want_fast));
+        prop_assert_eq!(key(closest_in_group(&g, &tight)), key(want_tight));
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(64)))]
+
+    /// Groups change how a leaf is stored, not what any walk finds.
+    #[test]
+    fn grouped_leaves_return_the_index_lists_hits(
+        geom in grid_geometry(1),
+        isect in prop_oneof![Just(80.0), Just(2.0), Just(20.0)],
+        group in prop_oneof![Just(1usize), Just(4)],
+        blocked in any::<bool>(),
+        rays in prop::collection::vec(traversal_ray(), 1..40),
+    ) {
+        let layout = if blocked { Layout::Blocked } else { Layout::Nodes };
+        let [list, grouped] = both_leaves(&geom, isect, group, layout);
+        let list = Scene::from_words(&list).unwrap();
+        let grouped = Scene::from_words(&grouped).unwrap();
+        prop_assert!(!list.has_groups());
+        prop_assert_eq!(grouped.has_groups(), grouped.contents() & contents::GROUPS != 0);
+        let n = rays.len();
+        for mode in [Mode::Fast, Mode::Watertight] {
+            let want: Vec<[u32; 4]> = rays.iter().map(|r| bits(&list.intersect_in(mode, r))).collect();
+            let want_occ: Vec<bool> = rays.iter().map(|r| list.occluded_in(mode, r)).collect();
+            let got: Vec<[u32; 4]> = rays.iter().map(|r| bits(&grouped.intersect_in(mode, r))).collect();
+            prop_assert_eq!(&got, &want, "{:?}", mode);
+            let occ: Vec<bool> = rays.iter().map(|r| grouped.occluded_in(mode, r)).collect();
+            prop_assert_eq!(&occ, &want_occ, "{:?}", mode);
+            for in_flight in [InFlight::Four, InFlight::Sixteen] {
+                let mut hits = vec![Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 }; n];
+                stream::intersect_interleaved(&grouped, mode, in_flight, &rays, &mut hits).unwrap();
+                prop_assert_eq!(&hits.iter().map(bits).collect::<Vec<_>>(), &want, "{:?} {:?}", mode, in_flight);
+                let mut occ = vec![false; n];
+                stream::occluded_interleaved(&grouped, mode, in_flight, &rays, &mut occ).unwrap();
+                prop_assert_eq!(&occ, &want_occ, "{:?} {:?}", mode, in_flight);
+            }
+            let config = Config { mode, packets: Packets::Off, ..Config::default() };
+            let mut hits = vec![Hit::MISS; n];
+            let mut scratch = vec![0u64; stream::scratch_words(n)];
+            stream::intersect(&grouped, &config, &rays, &mut hits, &mut scratch).unwrap();
+            prop_assert_eq!(&hits.iter().map(bits).collect::<Vec<_>>(), &want, "stream {:?}", mode);
+            for chunk in rays.chunks(8) {
+                let packet = RayPacket::<f32x8>::from_rays(chunk);
+                let (a, b) = (list.intersect_packet_in(mode, &packet), grouped.intersect_packet_in(mode, &packet));
+                let (mut ha, mut hb) = (vec![Hit::MISS; chunk.len()], vec![Hit::MISS; chunk.len()]);
+                HitPacket::write_active(&a, &packet, &mut ha);
+                HitPacket::write_active(&b, &packet, &mut hb);
+                prop_assert_eq!(ha.iter().map(bits).collect::<Vec<_>>(), hb.iter().map(bits).collect::<Vec<_>>());
+                let (oa, ob) = (list.occluded_packet_in(mode, &packet), grouped.occluded_packet_in(mode, &packet));
+                prop_assert_eq!(oa.to_bitmask(), ob.to_bitmask());
+            }
+        }
+    }
+}
+
+/// A scene whose leaves hold several triangles: 300 triangles scattered on a grid, overlapping.
+fn scattered() -> Geometry {
+    let triangles = (0..300)
+        .map(|i| {
+            let p = Vec3::new(
+                (i * 7 % 9) as f32,
+                (i * 11 % 7) as f32,
+                (i * 13 % 11) as f32,
+            );
+            [
+                p,
+                p + Vec3::new(1.7, 0.1, 0.0),
+                p + Vec3::new(0.0, 1.6, 0.3),
+            ]
+        })
+        .collect();
+    Geometry {
+        triangles,
+        ..Geometry::default()
+    }
+}
+
+fn grouped_words() -> (Vec<u32>, usize) {
+    let [_, words] = both_leaves(&scattered(), 20.0, 4, Layout::Nodes);
+    assert_ne!(words[header::CONTENTS] & contents::GROUPS, 0);
+    assert_eq!(
+        words[header::INDEX_COUNT],
+        0,
+        "groups replace the index list"
+    );
+    (words.clone(), words[header::GROUPS_OFFSET] as usize)
+}
+
+fn corrupt(edit: impl Fn(&mut Vec<u32>, usize, usize)) -> Result<(), FormatError> {
+    let (mut w, base) = grouped_words();
+    let n = w[header::GROUP_COUNT] as usize;
+    // A group with a padding lane, to damage that too.
+    let padded = (0..n)
+        .find(|g| w[base + g * GROUP_WORDS + slot::IDS + 3] == PAD_ID)
+        .expect("a group with padding");
+    edit(&mut w, base, padded);
+    seal(&mut w);
+    Scene::from_words(&w).map(|_| ())
+}
+
+#[test]
+fn validation_rebuilds_every_group() {
+    let (w, _) = grouped_words();
+    Scene::from_words(&w).expect("the serializer's groups validate");
+    let bad_group = |r: Result<(), FormatError>| matches!(r, Err(FormatError::BadGroup { .. }));
+    // A vertex bit, a threshold, an id, a padding lane's id, vertex or threshold, a zero word.
+    assert!(bad_group(corrupt(|w, b, _| w[b + slot::VERTICES + 5] ^= 1)));
+    assert!(bad_group(corrupt(
+        |w, b, _| w[b + slot::MIN_DET2] = f32::INFINITY.to_bits()
+    )));
+    assert!(bad_group(corrupt(|w, b, _| w[b + slot::IDS + 1] ^= 1)));
+    assert!(bad_group(corrupt(|w, b, g| w
+        [b + g * GROUP_WORDS + slot::IDS + 3] =
+        0)));
+    assert!(bad_group(corrupt(
+        |w, b, g| w[b + g * GROUP_WORDS + 3] = 1.0f32.to_bits()
+    )));
+    assert!(bad_group(corrupt(|w, b, g| w
+        [b + g * GROUP_WORDS + slot::MIN_DET2 + 3] =
+        0)));
+    assert!(bad_group(corrupt(|w, b, _| w[b + slot::ZERO] = 1)));
+    // An id past the triangles is a bad primitive, not a read out of range.
+    assert!(matches!(
+        corrupt(|w, b, _| w[b + slot::IDS] = 300),
+        Err(FormatError::BadPrimitive { .. })
+    ));
+    // The bit without the section, the section without the bit, groups beside an index list.
+    assert_eq!(
+        corrupt(|w, _, _| w[header::CONTENTS] &= !contents::GROUPS),
+        Err(FormatError::BadContents)
+    );
+    assert_eq!(
+        corrupt(|w, _, _| w[header::INDEX_COUNT] = 1),
+        Err(FormatError::BadContents)
+    );
+}
+
+#[test]
+fn a_leaf_naming_another_leafs_groups_is_refused() {
+    let (w, _) = grouped_words();
+    let scene = Scene::from_words(&w).unwrap();
+    let nodes = w[header::NODES_OFFSET] as usize;
+    let leaves: Vec<usize> = (0..scene.node_count() as usize)
+        .filter(|&i| {
+            let n = scene.node(i as u32);
+            n.is_leaf() && n.prim_count() > 1
+        })
+        .collect();
+    assert!(leaves.len() >= 2);
+    let (a, b) = (leaves[0], leaves[1]);
+    let mut bad = w.clone();
+    bad[nodes + 2 * b] = w[nodes + 2 * a]; // b's payload: a's first group
+    seal(&mut bad);
+    assert!(matches!(
+        Scene::from_words(&bad),
+        Err(FormatError::IndexOrder { .. })
+    ));
+}
+
+#[test]
+fn groups_need_a_scene_of_triangles_only() {
+    let mut geom = scattered();
+    geom.spheres.push((Vec3::splat(3.0), 1.0));
+    let tree = build(&geom, &BuildParams::default(), None).unwrap();
+    let err = serialize_as(&tree, &geom, 0.0, Layout::Nodes, Leaves::Groups).unwrap_err();
+    assert!(err.contains("spheres"), "{err}");
+}
+
+#[test]
+fn a_group_holds_its_lanes_as_the_triangles_section_does() {
+    let v = [
+        Vec3::new(1.0, 2.0, 3.0),
+        Vec3::new(4.0, 5.0, 6.0),
+        Vec3::new(7.0, 8.0, 10.0),
+    ];
+    let g = group::pack(&[(5, v, 0.25)]);
+    assert_eq!(g[slot::VERTICES], 1.0f32.to_bits()); // v0.x lane 0
+    assert_eq!(g[slot::VERTICES + 4], 2.0f32.to_bits()); // v0.y lane 0
+    assert_eq!(g[slot::VERTICES + 12 + 8], 6.0f32.to_bits()); // v1.z lane 0
+    assert_eq!(g[slot::VERTICES + 24 + 8], 10.0f32.to_bits()); // v2.z lane 0
+    assert_eq!(group::ids(&g), [5, PAD_ID, PAD_ID, PAD_ID]);
+    assert_eq!(g[slot::MIN_DET2 + 1], f32::INFINITY.to_bits());
+    assert_eq!(g[slot::VERTICES + 1], 0);
+    assert_eq!(group::groups_for(1), 0);
+    assert_eq!(group::groups_for(2), 1);
+    assert_eq!(group::groups_for(5), 2);
+    let _ = Ray::new(Vec3::ZERO, Vec3::X);
+}
