@@ -13,14 +13,19 @@ use kdray_core::simd::{f32x4, f32x8};
 use kdray_core::{Hit, Ray};
 use std::path::Path;
 
+/// `KDRAY_BENCH_SIZE`, or 1024×1024 when it is not set.
+///
+/// # Panics
+/// On a value that is not `WxH` with both at least 1: a typo must not measure the default size.
 fn size() -> (u32, u32) {
-    std::env::var("KDRAY_BENCH_SIZE")
-        .ok()
-        .and_then(|s| {
-            let (w, h) = s.split_once('x')?;
-            Some((w.parse().ok()?, h.parse().ok()?))
-        })
-        .unwrap_or((1024, 1024))
+    let Ok(v) = std::env::var("KDRAY_BENCH_SIZE") else {
+        return (1024, 1024);
+    };
+    let parsed = v.split_once('x').and_then(|(w, h)| {
+        let (w, h): (u32, u32) = (w.parse().ok()?, h.parse().ok()?);
+        (w > 0 && h > 0).then_some((w, h))
+    });
+    parsed.unwrap_or_else(|| panic!("KDRAY_BENCH_SIZE='{v}': expected WxH, e.g. 256x256"))
 }
 
 fn traversal(c: &mut Criterion) {

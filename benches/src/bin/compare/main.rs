@@ -7,12 +7,16 @@
 //! hit; traces both sets with every tracer on one thread, `--repeat` times, and prints the median
 //! Mrays/s, plus how many rays disagree with kdray's scalar traversal (a different `t`; ties at
 //! the same `t` do not count).
+//!
+//! Exit codes: 0 done, 1 the mesh cannot be loaded, 2 a usage error.
 
+mod args;
+
+use args::{Command, USAGE};
 use kdray_benches::peer_bvh::BvhPeer;
 use kdray_benches::setup::{Workload, to_input_ids, trace_packets, trace_scalar};
 use kdray_core::simd::{f32x4, f32x8};
 use kdray_core::{Hit, Ray};
-use std::path::PathBuf;
 use std::time::Instant;
 
 struct Row {
@@ -51,31 +55,19 @@ fn mismatches(reference: &[Hit], hits: &[Hit]) -> usize {
 }
 
 fn main() {
-    let mut args = std::env::args().skip(1);
-    let mut mesh: Option<PathBuf> = None;
-    let (mut repeat, mut size) = (5usize, (1024u32, 1024u32));
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--repeat" => {
-                repeat = args
-                    .next()
-                    .and_then(|v| v.parse().ok())
-                    .filter(|&n| n > 0)
-                    .unwrap_or(5)
-            }
-            "--size" => {
-                let v = args.next().unwrap_or_default();
-                let (w, h) = v.split_once('x').unwrap_or(("1024", "1024"));
-                size = (w.parse().unwrap_or(1024), h.parse().unwrap_or(1024));
-            }
-            _ => mesh = Some(PathBuf::from(a)),
+    let args = match args::parse(std::env::args().skip(1)) {
+        Ok(Command::Run(args)) => args,
+        Ok(Command::Help) => {
+            println!("{USAGE}");
+            return;
         }
-    }
-    let Some(mesh) = mesh else {
-        eprintln!("usage: kdray-compare MESH [--repeat N] [--size WxH]");
-        std::process::exit(2);
+        Err(e) => {
+            eprintln!("kdray-compare: {e}\n{USAGE}");
+            std::process::exit(2);
+        }
     };
-    let work = match Workload::load(&mesh, size.0, size.1) {
+    let (mesh, repeat) = (&args.mesh, args.repeat);
+    let work = match Workload::load(mesh, args.size.0, args.size.1) {
         Ok(w) => w,
         Err(e) => {
             eprintln!("kdray-compare: {e}");
