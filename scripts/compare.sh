@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
-# Runs the whole side-by-side comparison of DESIGN.md's benchmark protocol and prints one table
-# per mesh: kdray scalar / 4-wide / 8-wide / stream, the bvh crate, and Embree 3
-# (rtcIntersect1/8/1M) on the same rays, one thread, median of --repeat runs.
+# Runs the whole side-by-side comparison of DESIGN.md's benchmark protocol and prints, per mesh and
+# per camera framing (loose: the bounding sphere in a 45° field of view; tight: the mesh's projected
+# bounds fill the image), a table of kdray scalar / 4-wide / 8-wide / stream, the bvh crate, and
+# Embree 3 (rtcIntersect1/8/1M) on the same rays, one thread, median of --repeat runs, the share
+# of primary rays that hit the mesh, and per kind of ray a summary line: kdray's best row against
+# Embree's best row and their ratio.
 #
 # Builds with AVX2/FMA (-C target-cpu=native) into $CARGO_TARGET_DIR/native (default
 # target/native) so the baseline build stays untouched. Meshes default to the dragon and the
