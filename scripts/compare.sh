@@ -1,20 +1,34 @@
 #!/usr/bin/env bash
-# Runs the whole side-by-side comparison of DESIGN.md's benchmark protocol and prints one table
-# per mesh: kdray scalar / 4-wide / 8-wide, the bvh crate, and Embree 3 (rtcIntersect1/8/1M) on the
-# same rays, one thread, median of --repeat runs.
+# Runs the whole side-by-side comparison of DESIGN.md's benchmark protocol and prints, per mesh and
+# per camera framing (loose: the bounding sphere in a 45° field of view; tight: the mesh's projected
+# bounds fill the image), a table of kdray scalar / 4-wide / 8-wide / stream, the bvh crate, and
+# Embree 3 (rtcIntersect1/8/1M) on the same rays, one thread, median of --repeat runs, the share
+# of primary rays that hit the mesh, and per kind of ray a summary line: kdray's best row against
+# Embree's best row and their ratio.
 #
-# Builds with AVX2/FMA (-C target-cpu=native) into target/native so the baseline build in
-# target/ stays untouched. Usage: scripts/compare.sh [MESH...] [--repeat N]
+# Builds with AVX2/FMA (-C target-cpu=native) into $CARGO_TARGET_DIR/native (default
+# target/native) so the baseline build stays untouched. Meshes default to the dragon and the
+# bunny in $KDRAY_DATA (default data/), where scripts/fetch-meshes.sh puts them.
+#
+# Usage: scripts/compare.sh [MESH...] [--repeat N] [--size WxH]
+# Exit codes: 0 done, 1 a missing mesh or a failed build or run, 2 a usage error.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+usage() { sed -n 's/^# Usage: /Usage: /p' "$0"; }
+die_usage() { echo "compare.sh: $*" >&2; usage >&2; exit 2; }
 meshes=() ; args=()
 while [ $# -gt 0 ]; do
   case "$1" in
-    --repeat|--size) args+=("$1" "$2"); shift 2 ;;
+    --repeat|--size)
+      [ $# -ge 2 ] || die_usage "$1 needs a value"
+      args+=("$1" "$2"); shift 2 ;;
+    -h|--help) usage; exit 0 ;;
+    -*) die_usage "unknown option '$1'" ;;
     *) meshes+=("$1"); shift ;;
   esac
 done
-[ ${#meshes[@]} -gt 0 ] || meshes=(data/dragon.ply data/bunny.ply)
+data=${KDRAY_DATA:-data}
+[ ${#meshes[@]} -gt 0 ] || meshes=("$data/dragon.ply" "$data/bunny.ply")
 for m in "${meshes[@]}"; do
   [ -f "$m" ] || { echo "missing $m: run scripts/fetch-meshes.sh" >&2; exit 1; }
 done
@@ -24,10 +38,11 @@ if pkg-config --exists embree3 2>/dev/null || [ -f /usr/include/embree3/rtcore.h
 else
   echo "Embree 3 not installed (scripts/bench-setup.sh installs it): comparing without it" >&2
 fi
-RUSTFLAGS="${RUSTFLAGS:-} -C target-cpu=native" CARGO_TARGET_DIR=target/native \
+target=${CARGO_TARGET_DIR:-target}/native
+RUSTFLAGS="${RUSTFLAGS:-} -C target-cpu=native" CARGO_TARGET_DIR=$target \
   cargo build --release -q -p kdray-benches "${features[@]}" --bin compare
 grep -m1 '^model name' /proc/cpuinfo || true
 for m in "${meshes[@]}"; do
-  target/native/release/compare "$m" "${args[@]}"
+  "$target/release/compare" "$m" "${args[@]}"
   echo
 done

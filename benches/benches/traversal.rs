@@ -1,5 +1,6 @@
 //! Traversal throughput on the benchmark protocol's rays (DESIGN.md): the dragon and the bunny
-//! (`scripts/fetch-meshes.sh` puts them in `data/`), primary and diffuse rays, one thread,
+//! (`scripts/fetch-meshes.sh` puts them in `data/`), primary and diffuse rays of both framings
+//! (loose and tight, `kdray_benches::framing`), one thread,
 //! kdray scalar / 4-wide / 8-wide next to the `bvh` crate and, with `--features embree`,
 //! Embree's `rtcIntersect1` and `rtcIntersect8` on the same rays in the same run.
 //!
@@ -13,14 +14,19 @@ use kdray_core::simd::{f32x4, f32x8};
 use kdray_core::{Hit, Ray};
 use std::path::Path;
 
+/// `KDRAY_BENCH_SIZE`, or 1024×1024 when it is not set.
+///
+/// # Panics
+/// On a value that is not `WxH` with both at least 1: a typo must not measure the default size.
 fn size() -> (u32, u32) {
-    std::env::var("KDRAY_BENCH_SIZE")
-        .ok()
-        .and_then(|s| {
-            let (w, h) = s.split_once('x')?;
-            Some((w.parse().ok()?, h.parse().ok()?))
-        })
-        .unwrap_or((1024, 1024))
+    let Ok(v) = std::env::var("KDRAY_BENCH_SIZE") else {
+        return (1024, 1024);
+    };
+    let parsed = v.split_once('x').and_then(|(w, h)| {
+        let (w, h): (u32, u32) = (w.parse().ok()?, h.parse().ok()?);
+        (w > 0 && h > 0).then_some((w, h))
+    });
+    parsed.unwrap_or_else(|| panic!("KDRAY_BENCH_SIZE='{v}': expected WxH, e.g. 256x256"))
 }
 
 fn traversal(c: &mut Criterion) {
@@ -41,9 +47,13 @@ fn traversal(c: &mut Criterion) {
         let device = kdray_benches::peer_embree::EmbreeDevice::new().expect("embree device");
         #[cfg(feature = "embree")]
         let embree = device.build(&work.triangles).expect("embree build");
-        for (set, rays) in [("primary", &work.primary), ("diffuse", &work.diffuse)] {
-            let mut group =
-                c.benchmark_group(format!("{mesh}/{set}/isa={}", kdray_core::isa::name()));
+        let sets = work.framings.iter().flat_map(|f| {
+            let name = f.framing.name();
+            [(name, "primary", &f.primary), (name, "diffuse", &f.diffuse)]
+        });
+        for (framing, set, rays) in sets {
+            let isa = kdray_core::isa::name();
+            let mut group = c.benchmark_group(format!("{mesh}/{framing}/{set}/isa={isa}"));
             group
                 .sample_size(10)
                 .throughput(Throughput::Elements(rays.len() as u64));

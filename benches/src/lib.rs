@@ -13,12 +13,14 @@
 //!   `rtcIntersect1` and `rtcIntersect8`; feature `embree`, which links `libembree3` (Debian:
 //!   `libembree-dev`, installed by `scripts/bench-setup.sh`).
 //!
-//! - [`setup::Workload`]: the protocol's mesh, tree and ray sets.
+//! - [`setup::Workload`]: the protocol's mesh, tree and ray sets, for each of the camera framings
+//!   in [`framing`] (loose and tight).
 //!
 //! Peers build single-threaded, as the benchmark protocol asks. Rays must have `tmin >= 0`; rays
 //! that are not finite are reported as misses without being traced. This crate is the only place
 //! in the workspace with `unsafe` code (the Embree FFI); each block states why it is sound.
 
+pub mod framing;
 pub mod peer_bvh;
 #[cfg(feature = "embree")]
 pub mod peer_embree;

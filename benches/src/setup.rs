@@ -1,16 +1,49 @@
 //! The benchmark protocol's workload (DESIGN.md, "Benchmark protocol"), shared by the criterion
-//! benches and the `compare` table: a mesh, kdray's tree over it built single-threaded, the
-//! framing camera's primary rays in 2×4 tiles, and one cosine-weighted diffuse bounce per
-//! primary hit.
+//! benches and the `compare` table: a mesh, kdray's tree over it built single-threaded, and for
+//! each camera framing ([`Framing`]) its primary rays in 2×4 tiles and one cosine-weighted
+//! diffuse bounce per primary hit.
 
+use crate::framing::{Framing, loose_camera, tight_camera};
 use glam::Vec3;
 use kdray::build::{BuildParams, build};
 use kdray::flat::serialize;
-use kdray::rays::{diffuse_rays, framing_camera, primary_rays};
+use kdray::rays::{diffuse_rays, primary_rays};
+use kdray_core::camera::Camera;
 use kdray_core::simd::f32x8;
 use kdray_core::{Hit, Ray, Scene};
 use std::path::Path;
 use std::time::Instant;
+
+/// The rays of one framing.
+pub struct RaySets {
+    pub framing: Framing,
+    /// The camera's rays, one per pixel, tile by tile ([`primary_rays`]).
+    pub primary: Vec<Ray>,
+    /// How many of `primary` hit the mesh.
+    pub primary_hits: usize,
+    /// One bounce per primary hit ([`diffuse_rays`], seed 1).
+    pub diffuse: Vec<Ray>,
+}
+
+impl RaySets {
+    /// The share of primary rays that hit the mesh, in `[0, 1]`.
+    pub fn hit_fraction(&self) -> f64 {
+        self.primary_hits as f64 / self.primary.len().max(1) as f64
+    }
+
+    fn new(scene: &Scene, framing: Framing, camera: &impl Camera, size: (u32, u32)) -> Self {
+        let primary = primary_rays(camera, size.0, size.1);
+        let mut hits = vec![Hit::MISS; primary.len()];
+        trace_packets::<f32x8>(scene, &primary, &mut hits);
+        let diffuse = diffuse_rays(scene, &primary, &hits, 1);
+        Self {
+            framing,
+            primary_hits: hits.iter().filter(|h| h.is_hit()).count(),
+            primary,
+            diffuse,
+        }
+    }
+}
 
 /// Everything a benchmark of one mesh needs.
 pub struct Workload {
@@ -19,15 +52,15 @@ pub struct Workload {
     pub words: Vec<u32>,
     /// kdray's single-threaded build time.
     pub build_ms: f64,
-    pub primary: Vec<Ray>,
-    pub diffuse: Vec<Ray>,
+    /// One entry per framing, in [`Framing::ALL`]'s order (loose, then tight).
+    pub framings: Vec<RaySets>,
 }
 
 impl Workload {
-    /// Loads `mesh` and prepares the ray sets for a `width × height` image.
+    /// Loads `mesh` and prepares both framings' ray sets for a `width × height` image.
     ///
     /// # Errors
-    /// The loader's message, naming the file.
+    /// The loader's message, naming the file; a scene no camera can frame.
     pub fn load(mesh: &Path, width: u32, height: u32) -> Result<Self, String> {
         let geom = kdray::load::load_mesh(mesh).map_err(|e| e.to_string())?;
         let start = Instant::now();
@@ -39,17 +72,31 @@ impl Workload {
         let build_ms = start.elapsed().as_secs_f64() * 1e3;
         let words = serialize(&tree, &geom, build_ms as f32)?;
         let scene = Scene::from_words(&words).map_err(|e| e.to_string())?;
-        let camera = framing_camera(scene.bounds()).ok_or("scene too large to frame")?;
-        let primary = primary_rays(&camera, width, height);
-        let mut hits = vec![Hit::MISS; primary.len()];
-        trace_packets::<f32x8>(&scene, &primary, &mut hits);
-        let diffuse = diffuse_rays(&scene, &primary, &hits, 1);
+        let cannot = |framing: Framing| {
+            format!("{}: no {} camera frames it", mesh.display(), framing.name())
+        };
+        let size = (width, height);
+        let framings = Framing::ALL
+            .iter()
+            .map(|&framing| {
+                Ok(match framing {
+                    Framing::Loose => {
+                        let camera = loose_camera(scene.bounds()).ok_or_else(|| cannot(framing))?;
+                        RaySets::new(&scene, framing, &camera, size)
+                    }
+                    Framing::Tight => {
+                        let camera = tight_camera(scene.bounds(), &geom.triangles)
+                            .ok_or_else(|| cannot(framing))?;
+                        RaySets::new(&scene, framing, &camera, size)
+                    }
+                })
+            })
+            .collect::<Result<_, String>>()?;
         Ok(Self {
             triangles: geom.triangles,
             words,
             build_ms,
-            primary,
-            diffuse,
+            framings,
         })
     }
 

@@ -1,26 +1,29 @@
-//! `kdray-compare MESH [--repeat N] [--size WxH]`: the benchmark protocol's side-by-side table.
+//! `kdray-compare MESH [--repeat N] [--size WxH]`: the benchmark protocol's side-by-side tables.
 //!
 //! Builds kdray's kd-tree, the `bvh` crate's BVH and (with the `embree` feature) Embree 3's
 //! high-quality BVH over the same mesh (traced by `rtcIntersect1`, `rtcIntersect8` and the stream
-//! call `rtcIntersect1M` with the coherent and the incoherent hint), each single-threaded and timed; makes the protocol's
-//! primary rays (framing pinhole, 2×4 tiles) and one cosine-weighted diffuse bounce per primary
-//! hit; traces both sets with every tracer on one thread, `--repeat` times, and prints the median
-//! Mrays/s, plus how many rays disagree with kdray's scalar traversal (a different `t`; ties at
-//! the same `t` do not count).
+//! call `rtcIntersect1M` with the coherent and the incoherent hint), each single-threaded and
+//! timed. For each camera framing (loose: the bounding sphere in a 45° field of view, the rays of
+//! every earlier table; tight: the mesh's projected bounds fill the image) it makes the
+//! protocol's primary rays (2×4 tiles) and one cosine-weighted diffuse bounce per primary hit,
+//! traces every set with every tracer on one thread, `--repeat` times, and prints a table of the
+//! median Mrays/s, plus how many rays disagree with kdray's scalar traversal (a different `t`;
+//! ties at the same `t` do not count). Each framing says what share of its primary rays hit the
+//! mesh, and each (framing, kind of ray) ends with a summary line: kdray's best row against
+//! Embree's best row and the ratio.
+//!
+//! Exit codes: 0 done, 1 the mesh cannot be loaded or framed, 2 a usage error.
 
+mod args;
+mod report;
+
+use args::{Command, USAGE};
 use kdray_benches::peer_bvh::BvhPeer;
 use kdray_benches::setup::{Workload, to_input_ids, trace_packets, trace_scalar};
 use kdray_core::simd::{f32x4, f32x8};
 use kdray_core::{Hit, Ray};
-use std::path::PathBuf;
+use report::{Family, Row};
 use std::time::Instant;
-
-struct Row {
-    name: String,
-    build_ms: Option<f64>,
-    mrays: [f64; 2],
-    mismatches: [usize; 2],
-}
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -51,31 +54,19 @@ fn mismatches(reference: &[Hit], hits: &[Hit]) -> usize {
 }
 
 fn main() {
-    let mut args = std::env::args().skip(1);
-    let mut mesh: Option<PathBuf> = None;
-    let (mut repeat, mut size) = (5usize, (1024u32, 1024u32));
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--repeat" => {
-                repeat = args
-                    .next()
-                    .and_then(|v| v.parse().ok())
-                    .filter(|&n| n > 0)
-                    .unwrap_or(5)
-            }
-            "--size" => {
-                let v = args.next().unwrap_or_default();
-                let (w, h) = v.split_once('x').unwrap_or(("1024", "1024"));
-                size = (w.parse().unwrap_or(1024), h.parse().unwrap_or(1024));
-            }
-            _ => mesh = Some(PathBuf::from(a)),
+    let args = match args::parse(std::env::args().skip(1)) {
+        Ok(Command::Run(args)) => args,
+        Ok(Command::Help) => {
+            println!("{USAGE}");
+            return;
         }
-    }
-    let Some(mesh) = mesh else {
-        eprintln!("usage: kdray-compare MESH [--repeat N] [--size WxH]");
-        std::process::exit(2);
+        Err(e) => {
+            eprintln!("kdray-compare: {e}\n{USAGE}");
+            std::process::exit(2);
+        }
     };
-    let work = match Workload::load(&mesh, size.0, size.1) {
+    let repeat = args.repeat;
+    let work = match Workload::load(&args.mesh, args.size.0, args.size.1) {
         Ok(w) => w,
         Err(e) => {
             eprintln!("kdray-compare: {e}");
@@ -83,17 +74,26 @@ fn main() {
         }
     };
     let (scene, tris, kd_build) = (work.scene(), &work.triangles[..], work.build_ms);
-    let (primary, diffuse) = (&work.primary, &work.diffuse);
-    let sets = [&primary[..], &diffuse[..]];
+    // Every framing's sets in `report::set_index` order: loose primary, loose diffuse, tight
+    // primary, tight diffuse.
+    let sets: Vec<&[Ray]> = work
+        .framings
+        .iter()
+        .flat_map(|f| [&f.primary[..], &f.diffuse[..]])
+        .collect();
 
     let mut rows = Vec::new();
     let mut reference: Vec<Vec<Hit>> = Vec::new();
-    let mut run = |name: &str, build_ms: Option<f64>, trace: &mut dyn FnMut(&[Ray], &mut [Hit])| {
+    let mut run = |name: &str,
+                   family: Family,
+                   build_ms: Option<f64>,
+                   trace: &mut dyn FnMut(&[Ray], &mut [Hit])| {
         let mut row = Row {
             name: name.to_string(),
+            family,
             build_ms,
-            mrays: [0.0; 2],
-            mismatches: [0; 2],
+            mrays: vec![0.0; sets.len()],
+            mismatches: vec![0; sets.len()],
         };
         for (k, rays) in sets.iter().enumerate() {
             let (mrays, hits) = time(rays, repeat, &mut *trace);
@@ -106,15 +106,20 @@ fn main() {
         }
         rows.push(row);
     };
-    run("kdray scalar", Some(kd_build), &mut |r, h| {
-        trace_scalar(&scene, r, h);
-        to_input_ids(&scene, h);
-    });
-    run("kdray packet 4", None, &mut |r, h| {
+    run(
+        "kdray scalar",
+        Family::Kdray,
+        Some(kd_build),
+        &mut |r, h| {
+            trace_scalar(&scene, r, h);
+            to_input_ids(&scene, h);
+        },
+    );
+    run("kdray packet 4", Family::Kdray, None, &mut |r, h| {
         trace_packets::<f32x4>(&scene, r, h);
         to_input_ids(&scene, h);
     });
-    run("kdray packet 8", None, &mut |r, h| {
+    run("kdray packet 8", Family::Kdray, None, &mut |r, h| {
         trace_packets::<f32x8>(&scene, r, h);
         to_input_ids(&scene, h);
     });
@@ -123,7 +128,7 @@ fn main() {
     let config = kdray_core::stream::Config::default();
     let most = sets.iter().map(|s| s.len()).max().unwrap_or(0);
     let mut scratch = vec![0u64; kdray_core::stream::scratch_words(most)];
-    run("kdray stream", None, &mut |r, h| {
+    run("kdray stream", Family::Kdray, None, &mut |r, h| {
         let words = kdray_core::stream::scratch_words(r.len());
         kdray_core::stream::intersect(&scene, &config, r, h, &mut scratch[..words])
             .expect("stream buffers sized by scratch_words");
@@ -133,9 +138,12 @@ fn main() {
     let start = Instant::now();
     let bvh = BvhPeer::build(tris);
     let bvh_build = start.elapsed().as_secs_f64() * 1e3;
-    run("bvh crate 0.13", Some(bvh_build), &mut |r, h| {
-        bvh.trace_into(r, h)
-    });
+    run(
+        "bvh crate 0.13",
+        Family::Bvh,
+        Some(bvh_build),
+        &mut |r, h| bvh.trace_into(r, h),
+    );
 
     #[cfg(feature = "embree")]
     {
@@ -144,39 +152,23 @@ fn main() {
         let start = Instant::now();
         let scene = device.build(tris).expect("embree build");
         let ms = start.elapsed().as_secs_f64() * 1e3;
-        run("embree rtcIntersect1", Some(ms), &mut |r, h| {
+        let e = Family::Embree;
+        run("embree rtcIntersect1", e, Some(ms), &mut |r, h| {
             scene.trace1_into(r, h)
         });
-        run("embree rtcIntersect8", None, &mut |r, h| {
+        run("embree rtcIntersect8", e, None, &mut |r, h| {
             scene.trace8_into(r, h)
         });
         // The stream call with either hint; the peer's best mode for a kind of ray is the best
         // of its rows.
-        run("embree rtcIntersect1M coherent", None, &mut |r, h| {
+        run("embree rtcIntersect1M coherent", e, None, &mut |r, h| {
             scene.trace1m_into(r, h, Coherence::Coherent)
         });
-        run("embree rtcIntersect1M incoherent", None, &mut |r, h| {
+        run("embree rtcIntersect1M incoherent", e, None, &mut |r, h| {
             scene.trace1m_into(r, h, Coherence::Incoherent)
         });
     }
 
-    println!(
-        "mesh {} ({} triangles), {} primary and {} diffuse rays, 1 thread, median of {repeat}, kdray isa={}",
-        mesh.display(),
-        tris.len(),
-        primary.len(),
-        diffuse.len(),
-        kdray_core::isa::name()
-    );
-    println!(
-        "| tracer | build ms | primary Mrays/s | diffuse Mrays/s | primary mismatches | diffuse mismatches |"
-    );
-    println!("|---|---:|---:|---:|---:|---:|");
-    for r in &rows {
-        let build = r.build_ms.map_or("-".to_string(), |ms| format!("{ms:.0}"));
-        println!(
-            "| {} | {build} | {:.2} | {:.2} | {} | {} |",
-            r.name, r.mrays[0], r.mrays[1], r.mismatches[0], r.mismatches[1]
-        );
-    }
+    let mesh = args.mesh.display().to_string();
+    report::print(&mesh, tris.len(), repeat, &work.framings, &rows);
 }
