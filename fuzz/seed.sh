@@ -21,4 +21,7 @@ cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan.kdt
 # The same two with a blocks section (format v7's blocked layout).
 cargo run -q -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default-blocked.kdt --layout blocked
 cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-blocked.kdt --layout blocked
+# And with triangle groups (format v9), alone and with blocks.
+cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-groups.kdt --leaves groups
+cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-blocked-groups.kdt --leaves groups --layout blocked
 rm -rf "$tmp"

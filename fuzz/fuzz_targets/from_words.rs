@@ -7,7 +7,9 @@
 //! different primitive only as a tie at that `t`), for closest hits and for occlusion. A scene
 //! with a blocks section (format v7) is also traced over its nodes
 //! ([`Scene::without_blocks`]): the walk over the blocks, alone and 16 interleaved, must return
-//! the node walk's hits bit for bit.
+//! the node walk's hits bit for bit. A scene with triangle groups (format v9) is checked the same
+//! way: its single rays test four triangles at once with the group kernels, its packets read the
+//! groups' lanes one triangle at a time, and the two must agree.
 //!
 //! Run: `cargo +nightly fuzz run from_words fuzz/corpus/from_words` (from the repository root);
 //! the corpus starts from small valid scenes (`fuzz/seed.sh`).

@@ -5,6 +5,8 @@
 //!   primitive only as a tie at that `t`), for closest hits and for occlusion, whatever the rays;
 //!   so must the interleaved single-ray walk and the ray-stream API (bit for bit, ties included,
 //!   where no packet traces; the rays, up to 64, are one stream);
+//! - the scene's triangles alone, stored with triangle groups (format v9), must give the hits of
+//!   the same tree stored with an index list, bit for bit, single rays and packets, both modes;
 //! - fast and watertight mode must agree on rays whose nearer hit is not near an edge, not
 //!   grazing and not at the ends of the ray's range (both hit, `t` within 1e-4 relative).
 //!

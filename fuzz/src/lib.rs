@@ -4,11 +4,12 @@ pub mod traversal;
 
 use kdray::Geometry;
 use kdray::build::{BuildParams, build};
-use kdray::flat::serialize;
+use kdray::flat::{Layout, Leaves, serialize, serialize_as};
 use kdray_core::simd::{HitPacket, Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::{Hit, Ray, Scene};
 
-/// A mesh a loader accepted must be buildable into a tree whose words validate: the loaders'
+/// A mesh a loader accepted must be buildable into a tree whose words validate (with an index
+/// list, and with groups when it has no spheres): the loaders'
 /// checks (finite vertices, finite edges, at least one triangle, attribute counts) are exactly
 /// what the builder and the flat format need. Panics, with the reason, if not.
 pub fn build_and_validate(what: &str, geom: &Geometry) -> Vec<u32> {
@@ -25,6 +26,14 @@ pub fn build_and_validate(what: &str, geom: &Geometry) -> Vec<u32> {
         serialize(&tree, geom, 0.0).unwrap_or_else(|e| panic!("{what}: serialize failed: {e}"));
     if let Err(e) = Scene::from_words(&words) {
         panic!("{what}: accepted input serializes to an invalid scene: {e}");
+    }
+    // A scene of triangles alone also stores (and validates) with its leaves in groups of four.
+    if geom.spheres.is_empty() {
+        let grouped = serialize_as(&tree, geom, 0.0, Layout::Nodes, Leaves::Groups)
+            .unwrap_or_else(|e| panic!("{what}: serialize with groups failed: {e}"));
+        if let Err(e) = Scene::from_words(&grouped) {
+            panic!("{what}: accepted input serializes to an invalid grouped scene: {e}");
+        }
     }
     words
 }

@@ -4,6 +4,9 @@
 
 use glam::Vec3;
 use kdray::Geometry;
+use kdray::build::{BuildParams, build};
+use kdray::flat::{Layout, Leaves, serialize_as};
+use kdray_core::simd::{RayPacket, f32x8};
 use kdray_core::traverse::Mode;
 use kdray_core::{Hit, Ray, Scene};
 use std::sync::OnceLock;
@@ -98,6 +101,64 @@ pub fn check(data: &[u8]) {
     let scalar = crate::packets_agree_with_scalar(&scene, &rays);
     crate::stream_agrees_with_scalar(&scene, &rays, &scalar);
     fast_and_watertight_agree(&scene, &rays);
+    groups_agree_with_list(&rays);
+}
+
+/// The scene's triangles alone, one tree priced in groups, stored with an index list and with
+/// triangle groups (format v9). Built once.
+fn grouped_pair() -> &'static [Vec<u32>; 2] {
+    static WORDS: OnceLock<[Vec<u32>; 2]> = OnceLock::new();
+    WORDS.get_or_init(|| {
+        let geom = Geometry {
+            spheres: Vec::new(),
+            ..geometry()
+        };
+        let params = BuildParams {
+            parallel: false,
+            ..BuildParams::grouped()
+        };
+        let tree = build(&geom, &params, None).expect("the fixed triangles build");
+        [Leaves::List, Leaves::Groups].map(|leaves| {
+            serialize_as(&tree, &geom, 0.0, Layout::Nodes, leaves).expect("small trees fit")
+        })
+    })
+}
+
+/// Groups change how leaves are stored, not what is hit: the single-ray walk (its group kernels)
+/// and the packets (which read the groups' lanes) return the index list's hits bit for bit, ties
+/// included, closest and any hit, fast and watertight.
+pub fn groups_agree_with_list(rays: &[Ray]) {
+    let [list, grouped] = grouped_pair();
+    let list = Scene::from_words(list).expect("validates");
+    let grouped = Scene::from_words(grouped).expect("validates");
+    assert!(grouped.has_groups());
+    let bits = |h: Hit| [h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()];
+    for mode in [Mode::Fast, Mode::Watertight] {
+        for ray in rays {
+            let want = bits(list.intersect_in(mode, ray));
+            assert_eq!(
+                bits(grouped.intersect_in(mode, ray)),
+                want,
+                "{mode:?} {ray:?}"
+            );
+            assert_eq!(
+                grouped.occluded_in(mode, ray),
+                list.occluded_in(mode, ray),
+                "{mode:?} {ray:?}"
+            );
+        }
+        for chunk in rays.chunks(8) {
+            let packet = RayPacket::<f32x8>::from_rays(chunk);
+            let (mut a, mut b) = (vec![Hit::MISS; chunk.len()], vec![Hit::MISS; chunk.len()]);
+            list.intersect_packet_in(mode, &packet)
+                .write_active(&packet, &mut a);
+            grouped
+                .intersect_packet_in(mode, &packet)
+                .write_active(&packet, &mut b);
+            let key = |v: &[Hit]| v.iter().map(|h| bits(*h)).collect::<Vec<_>>();
+            assert_eq!(key(&a), key(&b), "{mode:?} packet {chunk:?}");
+        }
+    }
 }
 
 /// Smallest barycentric of a "clear" triangle hit: farther than this from every edge.

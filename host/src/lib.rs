@@ -57,6 +57,7 @@ pub mod build;
 pub mod closed;
 #[cfg(feature = "cli")]
 pub mod converge;
+pub mod counts;
 pub mod description;
 pub mod f64ref;
 pub mod flat;

@@ -219,7 +219,7 @@ fn validation_rebuilds_every_group() {
     let (w, _) = grouped_words();
     Scene::from_words(&w).expect("the serializer's groups validate");
     let bad_group = |r: Result<(), FormatError>| matches!(r, Err(FormatError::BadGroup { .. }));
-    // A vertex bit, a threshold, an id, a padding lane's id, vertex or threshold, a zero word.
+    // A vertex bit, a threshold, an id, a padding lane's id, vertex or threshold.
     assert!(bad_group(corrupt(|w, b, _| w[b + slot::VERTICES + 5] ^= 1)));
     assert!(bad_group(corrupt(
         |w, b, _| w[b + slot::MIN_DET2] = f32::INFINITY.to_bits()
@@ -234,7 +234,6 @@ fn validation_rebuilds_every_group() {
     assert!(bad_group(corrupt(|w, b, g| w
         [b + g * GROUP_WORDS + slot::MIN_DET2 + 3] =
         0)));
-    assert!(bad_group(corrupt(|w, b, _| w[b + slot::ZERO] = 1)));
     // An id past the triangles is a bad primitive, not a read out of range.
     assert!(matches!(
         corrupt(|w, b, _| w[b + slot::IDS] = 300),

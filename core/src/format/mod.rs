@@ -79,7 +79,7 @@
 //!   are cache lines when the words are 64-byte aligned (the host aligns them,
 //!   `kdray::flat::Aligned`).
 //! - **Groups** (CONTENTS bit `GROUPS`, version 9; only in a scene of triangles alone): a leaf's
-//!   triangles stored inline, four to a 48-word group in struct-of-arrays lanes
+//!   triangles stored inline, four to a 44-word group in struct-of-arrays lanes
 //!   ([`crate::group`], where the layout is documented), so that the single-ray walk tests one ray
 //!   against four triangles at once with no index list in between. A leaf of `n ≥ 2` triangles
 //!   then has as payload the first of its `⌈n/4⌉` groups instead of an index-list offset, and the

@@ -63,16 +63,35 @@ pub fn intersect_group(g: &Group, ray: &Ray) -> PrimHits<f32x4> {
 #[inline(always)]
 pub fn intersect_group_watertight(g: &Group, ray: &Ray, shear: &Shear) -> PrimHits<f32x4> {
     let o = ray.origin.to_array();
-    // `(v − o)[k]` of the scalar kernel: the same subtraction, component k only.
-    let rel = [0, 1, 2].map(|vk| {
-        let v = vertex(g, vk);
+    let [kx, ky, kz] = shear.k;
+    let origin = [
+        f32x4::splat(o[kx]),
+        f32x4::splat(o[ky]),
+        f32x4::splat(o[kz]),
+    ];
+    // `(v − o)[k]` of the scalar kernel: the same subtraction, component k only. (Written out:
+    // array `map`s here were left as out-of-line calls.)
+    let relative = |v: Vec3x<f32x4>| {
         let comp = [v.x, v.y, v.z];
-        shear.k.map(|k| comp[k] - f32x4::splat(o[k]))
-    });
+        [
+            comp[kx] - origin[0],
+            comp[ky] - origin[1],
+            comp[kz] - origin[2],
+        ]
+    };
+    let rel = [
+        relative(vertex(g, 0)),
+        relative(vertex(g, 1)),
+        relative(vertex(g, 2)),
+    ];
     let valid = thresholds(g).lt(f32x4::splat(f32::INFINITY));
     watertight_lanes(
         rel,
-        shear.s.map(f32x4::splat),
+        [
+            f32x4::splat(shear.s[0]),
+            f32x4::splat(shear.s[1]),
+            f32x4::splat(shear.s[2]),
+        ],
         f32x4::splat(ray.tmin),
         f32x4::splat(ray.tmax),
         valid,

@@ -18,7 +18,8 @@ use super::kernels::{PrimHits, intersect_sphere, intersect_triangle_prepared, re
 use super::lanes::Lanes;
 use super::packet::{HitPacket, RayPacket};
 use super::watertight::{ShearX, intersect_triangle_watertight_prepared};
-use crate::format::{MAX_DEPTH, Scene};
+use crate::format::{LeafPrims, MAX_DEPTH, Scene};
+use crate::group;
 use crate::traverse::{Contents, ENTRY_SLACK, GAMMA3, Mode, TINY, WIDEN, by_contents};
 use glam::Vec3;
 
@@ -97,15 +98,59 @@ impl Scene<'_> {
             return intersect_sphere(&self.sphere(prim - n_tris), rays);
         }
         let (tri, min_det2) = self.prepared_triangle(prim);
-        if let (true, Some(shear)) = (C::WATERTIGHT, shear) {
-            return intersect_triangle_watertight_prepared(
-                &self.vertices(prim),
-                min_det2,
-                rays,
-                shear,
-            );
+        intersect_stored_packet::<C, L>(&self.vertices(prim), &tri, min_det2, rays, shear)
+    }
+
+    /// Tests a leaf's primitives against the packet in the leaf's order: closest hits recorded
+    /// (or, with `ANY`, lanes that hit added to `done` and retired). A grouped leaf's triangles
+    /// are read from its groups' lanes, the same bits as the triangles section.
+    #[inline(always)]
+    fn leaf_packet<C: Contents, L: Lanes, const ANY: bool>(
+        &self,
+        node: &crate::node::Node,
+        rays: &mut RayPacket<L>,
+        hits: &mut HitPacket<L>,
+        done: &mut u32,
+        shear: &Option<ShearX<L>>,
+    ) {
+        // Records one primitive's lanes; true when no lane is left to serve (occlusion).
+        let mut record = |found: PrimHits<L>, prim: u32, rays: &mut RayPacket<L>| {
+            if ANY {
+                *done |= (found.mask & rays.active).bitmask();
+                rays.active = rays.active & !found.mask;
+                rays.active.none()
+            } else {
+                record_closest(hits, rays, &found, prim);
+                false
+            }
+        };
+        match self.leaf_prims(node) {
+            LeafPrims::Groups(groups) => {
+                for g in groups {
+                    for (j, prim) in group::ids(g).into_iter().enumerate() {
+                        if prim == group::PAD_ID {
+                            break;
+                        }
+                        let verts = group::lane_vertices(g, j);
+                        let tri = crate::Triangle::from_vertices(verts[0], verts[1], verts[2]);
+                        let min_det2 = group::lane_threshold(g, j);
+                        let found =
+                            intersect_stored_packet::<C, L>(&verts, &tri, min_det2, rays, shear);
+                        if record(found, prim, rays) {
+                            return;
+                        }
+                    }
+                }
+            }
+            leaf => {
+                for &prim in leaf.listed() {
+                    let found = self.intersect_prim_packet::<C, L>(prim, rays, shear);
+                    if record(found, prim, rays) {
+                        return;
+                    }
+                }
+            }
         }
-        intersect_triangle_prepared(&tri, min_det2, rays)
     }
 
     /// Walks the tree with the lanes in `group` (all of one sign octant). Closest-hit results
@@ -151,19 +196,7 @@ impl Scene<'_> {
             let node = self.node(index);
             if alive.any() && node.is_leaf() {
                 rays.active = alive;
-                for prim in self.leaf_prims(&node).ids() {
-                    let found = self.intersect_prim_packet::<C, L>(prim, rays, shear);
-                    if ANY {
-                        let bits = (found.mask & rays.active).bitmask();
-                        done |= bits;
-                        rays.active = rays.active & !found.mask;
-                        if rays.active.none() {
-                            break;
-                        }
-                    } else {
-                        record_closest(hits, rays, &found, prim);
-                    }
-                }
+                self.leaf_packet::<C, L, ANY>(&node, rays, hits, &mut done, shear);
                 rays.active = original_active;
                 if ANY && done & group == group & live {
                     return done;
@@ -290,4 +323,20 @@ fn widen_lanes<L: Lanes>(t: L) -> (L, L) {
     let tiny = L::splat(TINY);
     let (a, b) = (t * L::splat(1.0 - WIDEN), t * L::splat(1.0 + WIDEN));
     (a.min(b) - tiny, a.max(b) + tiny)
+}
+
+/// One stored triangle (its vertices, Möller–Trumbore's form of them, its threshold) against a
+/// packet in `C`'s mode.
+#[inline(always)]
+fn intersect_stored_packet<C: Contents, L: Lanes>(
+    verts: &[Vec3; 3],
+    tri: &crate::Triangle,
+    min_det2: f32,
+    rays: &RayPacket<L>,
+    shear: &Option<ShearX<L>>,
+) -> PrimHits<L> {
+    if let (true, Some(shear)) = (C::WATERTIGHT, shear) {
+        return intersect_triangle_watertight_prepared(verts, min_det2, rays, shear);
+    }
+    intersect_triangle_prepared(tri, min_det2, rays)
 }

@@ -31,7 +31,7 @@ pub struct BuildParams {
     /// A node with at most this many primitives becomes a leaf.
     pub max_prims: usize,
     /// Depth limit; `None` is `8 + 1.3·log2(N)` rounded (pbrt-v3), where a node holding more than
-    /// [`DEEP_LEAF_PRIMS`] primitives may still split for [`DEEP_LEVELS`] more levels. Both are
+    /// [`BuildParams::deep_leaf_prims`] primitives may still split for [`DEEP_LEVELS`] more levels. Both are
     /// capped by the core's stack. An explicit limit is a hard one.
     pub max_depth: Option<u32>,
     /// Build subtrees on the rayon pool (with the `cli` feature; one thread without it).
@@ -39,6 +39,10 @@ pub struct BuildParams {
     /// Primitives one leaf test takes: 1, or 4 for leaves stored in triangle groups
     /// (`kdray::flat::Leaves::Groups`), which the SAH then prices in groups.
     pub group: usize,
+    /// Past the automatic depth limit, a node holding more than this many primitives may still
+    /// split, for up to [`DEEP_LEVELS`] more levels ([`DEEP_LEAF_PRIMS`], or
+    /// [`GROUPED_DEEP_LEAF_PRIMS`] for grouped leaves).
+    pub deep_leaf_prims: usize,
 }
 
 impl Default for BuildParams {
@@ -51,13 +55,34 @@ impl Default for BuildParams {
             max_depth: None,
             parallel: true,
             group: 1,
+            deep_leaf_prims: DEEP_LEAF_PRIMS,
         }
     }
 }
 
 impl BuildParams {
+    /// The defaults for leaves stored in groups of four (docs/BUILD.md, "Triangle groups"): the
+    /// SAH priced in groups, intersection cost 3 (a group test costs about three interior steps
+    /// in instructions), and past the depth limit only nodes of more than
+    /// [`GROUPED_DEEP_LEAF_PRIMS`] split.
+    pub fn grouped() -> Self {
+        Self {
+            intersect_cost: GROUPED_INTERSECT_COST,
+            group: kdray_core::group::WIDTH,
+            deep_leaf_prims: GROUPED_DEEP_LEAF_PRIMS,
+            ..Self::default()
+        }
+    }
+}
+
+/// [`BuildParams::grouped`]'s intersection cost.
+pub const GROUPED_INTERSECT_COST: f64 = 3.0;
+/// [`BuildParams::grouped`]'s [`BuildParams::deep_leaf_prims`].
+pub const GROUPED_DEEP_LEAF_PRIMS: usize = 32;
+
+impl BuildParams {
     /// The depth limits for `n` primitives: `(soft, hard)`. Past `soft` only nodes holding more
-    /// than [`DEEP_LEAF_PRIMS`] primitives split; at `hard` none does.
+    /// than [`BuildParams::deep_leaf_prims`] primitives split; at `hard` none does.
     pub fn depth_limits(&self, n: usize) -> (u32, u32) {
         let cap = kdray_core::format::MAX_DEPTH as u32;
         match self.max_depth {
@@ -160,7 +185,9 @@ impl Ctx<'_> {
     /// Whether a node at `depth` holding `n` primitives may split (else it is a leaf).
     fn may_split(&self, depth: u32, n: usize) -> bool {
         let (soft, hard) = self.depth_limits;
-        n > self.params.max_prims && depth < hard && (depth < soft || n > DEEP_LEAF_PRIMS)
+        n > self.params.max_prims
+            && depth < hard
+            && (depth < soft || n > self.params.deep_leaf_prims)
     }
 }
 
@@ -289,15 +316,9 @@ fn build_node(
         return make_leaf(ctx, prims, weight);
     };
     let bad_refines = bad_refines + u32::from(split.cost > leaf_cost);
-    // Priced in groups, a leaf that fits the groups it already pays for stops as soon as no split
-    // beats it (Embree's leaf SAH); pbrt's allowance of bad refines was made for per-primitive
-    // leaves.
-    let grouped_stop = ctx.costs.group > 1
-        && split.cost >= leaf_cost
-        && n <= std::env::var("KDRAY_GSTOP")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(16);
+    // Priced in groups, a node of at most four groups' triangles stops as soon as no split beats
+    // it (Embree's leaf SAH); pbrt's allowance of bad refines was made for per-primitive leaves.
+    let grouped_stop = ctx.costs.group > 1 && split.cost >= leaf_cost && n <= 4 * ctx.costs.group;
     if grouped_stop || (split.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= 3 {
         return make_leaf(ctx, prims, weight);
     }

@@ -14,9 +14,10 @@ use std::time::Instant;
 /// Builder settings shared by `build` and `trace`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct BuildArgs {
-    /// SAH cost of one primitive test, relative to one traversal step (finite, > 0).
-    #[arg(long, default_value_t = BuildParams::default().intersect_cost, value_parser = parse_cost)]
-    pub isect_cost: f64,
+    /// SAH cost of one primitive test (of one group of four with `--leaves groups`), relative to
+    /// one traversal step (finite, > 0) [default: 80, or 3 with `--leaves groups`].
+    #[arg(long, value_parser = parse_cost)]
+    pub isect_cost: Option<f64>,
     /// SAH cost of one traversal step (finite, > 0).
     #[arg(long, default_value_t = BuildParams::default().traversal_cost, value_parser = parse_cost)]
     pub trav_cost: f64,
@@ -34,7 +35,7 @@ pub struct BuildArgs {
     #[arg(long, value_enum, default_value_t = flat::Layout::default())]
     pub layout: flat::Layout,
     /// How a leaf holds its triangles: `list` (ids in an index list; any scene), or `groups`
-    /// (inline, four to a 192-byte group, tested four at a time by single rays, with the SAH
+    /// (inline, four to a 176-byte group, tested four at a time by single rays, with the SAH
     /// priced in groups; triangles-only scenes; format v9).
     #[arg(long, value_enum, default_value_t = flat::Leaves::default())]
     pub leaves: flat::Leaves,
@@ -44,7 +45,7 @@ impl Default for BuildArgs {
     fn default() -> Self {
         let p = BuildParams::default();
         Self {
-            isect_cost: p.intersect_cost,
+            isect_cost: None,
             trav_cost: p.traversal_cost,
             empty_bonus: p.empty_bonus,
             max_depth: p.max_depth,
@@ -57,17 +58,17 @@ impl Default for BuildArgs {
 
 impl BuildArgs {
     pub fn params(&self) -> BuildParams {
+        let base = match self.leaves {
+            flat::Leaves::List => BuildParams::default(),
+            flat::Leaves::Groups => BuildParams::grouped(),
+        };
         BuildParams {
             traversal_cost: self.trav_cost,
-            intersect_cost: self.isect_cost,
+            intersect_cost: self.isect_cost.unwrap_or(base.intersect_cost),
             empty_bonus: self.empty_bonus,
             max_depth: self.max_depth,
             parallel: !self.serial_build,
-            group: match self.leaves {
-                flat::Leaves::List => 1,
-                flat::Leaves::Groups => kdray_core::group::WIDTH,
-            },
-            ..BuildParams::default()
+            ..base
         }
     }
 }

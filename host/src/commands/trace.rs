@@ -53,6 +53,11 @@ pub struct TraceArgs {
     /// Trace this many times and report the fastest (1 to 1000: a bound on the run time).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub repeat: u32,
+    /// Also count, per ray, what the single-ray closest-hit walk does over the nodes in fast mode
+    /// (interior steps, leaf visits, groups of four triangles and single primitives tested) and
+    /// print it on a second line (one more untimed pass over the rays, on one thread).
+    #[arg(long)]
+    pub counts: bool,
     #[command(flatten)]
     pub build: BuildArgs,
 }
@@ -152,7 +157,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         0.0
     };
     println!(
-        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} in_flight={} layout={}",
+        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} in_flight={} layout={} leaves={}",
         best * 1e3,
         rays.len(),
         args.packet,
@@ -170,7 +175,11 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         } else {
             "blocked"
         },
+        if scene.has_groups() { "groups" } else { "list" },
     );
+    if args.counts {
+        println!("{}", kdray::counts::count(&scene, &rays).per_ray());
+    }
     Ok(())
 }
 
