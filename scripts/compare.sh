@@ -6,8 +6,10 @@
 # of primary rays that hit the mesh, and per kind of ray a summary line: kdray's best row against
 # Embree's best row and their ratio.
 #
-# Builds with AVX2/FMA (-C target-cpu=native) into $CARGO_TARGET_DIR/native (default
-# target/native) so the baseline build stays untouched. Meshes default to the dragon and the
+# Builds for AVX2 + FMA (-C target-cpu=x86-64-v3, the protocol's ISA, also on machines with
+# AVX-512; KDRAY_CPU=native or another CPU name overrides it) into $CARGO_TARGET_DIR/KDRAY_CPU
+# (default target/x86-64-v3), so the baseline build stays untouched. kdray's rows come from two
+# trees: the default one (index lists) and `kdray build --leaves groups` ("kdray groups"). Meshes default to the dragon and the
 # bunny in $KDRAY_DATA (default data/), where scripts/fetch-meshes.sh puts them.
 #
 # Usage: scripts/compare.sh [MESH...] [--repeat N] [--size WxH]
@@ -38,10 +40,13 @@ if pkg-config --exists embree3 2>/dev/null || [ -f /usr/include/embree3/rtcore.h
 else
   echo "Embree 3 not installed (scripts/bench-setup.sh installs it): comparing without it" >&2
 fi
-target=${CARGO_TARGET_DIR:-target}/native
-RUSTFLAGS="${RUSTFLAGS:-} -C target-cpu=native" CARGO_TARGET_DIR=$target \
+cpu=${KDRAY_CPU:-x86-64-v3}
+target=${CARGO_TARGET_DIR:-target}/$cpu
+RUSTFLAGS="${RUSTFLAGS:-} -C target-cpu=$cpu" CARGO_TARGET_DIR=$target \
   cargo build --release -q -p kdray-benches "${features[@]}" --bin compare
 grep -m1 '^model name' /proc/cpuinfo || true
+echo "kdray built with -C target-cpu=$cpu"
+
 for m in "${meshes[@]}"; do
   "$target/release/compare" "$m" "${args[@]}"
   echo

@@ -6,7 +6,7 @@
 use crate::framing::{Framing, loose_camera, tight_camera};
 use glam::Vec3;
 use kdray::build::{BuildParams, build};
-use kdray::flat::serialize;
+use kdray::flat::{Layout, Leaves, serialize, serialize_as};
 use kdray::rays::{diffuse_rays, primary_rays};
 use kdray_core::camera::Camera;
 use kdray_core::simd::f32x8;
@@ -52,6 +52,11 @@ pub struct Workload {
     pub words: Vec<u32>,
     /// kdray's single-threaded build time.
     pub build_ms: f64,
+    /// kdray's tree with its leaves in triangle groups (`kdray build --leaves groups`: the SAH
+    /// priced in groups, `BuildParams::grouped`), and its single-threaded build time (the
+    /// serialization included, as above).
+    pub grouped_words: Vec<u32>,
+    pub grouped_build_ms: f64,
     /// One entry per framing, in [`Framing::ALL`]'s order (loose, then tight).
     pub framings: Vec<RaySets>,
 }
@@ -71,6 +76,14 @@ impl Workload {
         let tree = build(&geom, &params, None)?;
         let build_ms = start.elapsed().as_secs_f64() * 1e3;
         let words = serialize(&tree, &geom, build_ms as f32)?;
+        let start = Instant::now();
+        let grouped = BuildParams {
+            parallel: false,
+            ..BuildParams::grouped()
+        };
+        let tree = build(&geom, &grouped, None)?;
+        let grouped_words = serialize_as(&tree, &geom, 0.0, Layout::Nodes, Leaves::Groups)?;
+        let grouped_build_ms = start.elapsed().as_secs_f64() * 1e3;
         let scene = Scene::from_words(&words).map_err(|e| e.to_string())?;
         let cannot = |framing: Framing| {
             format!("{}: no {} camera frames it", mesh.display(), framing.name())
@@ -96,6 +109,8 @@ impl Workload {
             triangles: geom.triangles,
             words,
             build_ms,
+            grouped_words,
+            grouped_build_ms,
             framings,
         })
     }
@@ -103,6 +118,11 @@ impl Workload {
     /// The validated scene view.
     pub fn scene(&self) -> Scene<'_> {
         Scene::from_words(&self.words).expect("the writer's output validates")
+    }
+
+    /// The validated view of the grouped tree.
+    pub fn grouped_scene(&self) -> Scene<'_> {
+        Scene::from_words(&self.grouped_words).expect("the writer's output validates")
     }
 }
 

@@ -134,6 +134,27 @@ fn main() {
             .expect("stream buffers sized by scratch_words");
         to_input_ids(&scene, h);
     });
+    // The same modes over the tree with triangle groups (`kdray build --leaves groups`).
+    let grouped = work.grouped_scene();
+    run(
+        "kdray groups scalar",
+        Family::Kdray,
+        Some(work.grouped_build_ms),
+        &mut |r, h| {
+            trace_scalar(&grouped, r, h);
+            to_input_ids(&grouped, h);
+        },
+    );
+    run("kdray groups packet 8", Family::Kdray, None, &mut |r, h| {
+        trace_packets::<f32x8>(&grouped, r, h);
+        to_input_ids(&grouped, h);
+    });
+    run("kdray groups stream", Family::Kdray, None, &mut |r, h| {
+        let words = kdray_core::stream::scratch_words(r.len());
+        kdray_core::stream::intersect(&grouped, &config, r, h, &mut scratch[..words])
+            .expect("stream buffers sized by scratch_words");
+        to_input_ids(&grouped, h);
+    });
 
     let start = Instant::now();
     let bvh = BvhPeer::build(tris);
