@@ -103,53 +103,52 @@ fn prefetch_children(blocks: &[Block], block: &Block) {
     }
 }
 
-/// The cells a ray has yet to visit, as three arrays so that a block's cells are pushed by one
-/// 8-wide store each: reference, entry and exit.
-///
-/// Capacity: the items on the stack are the cells left of the blocks on the way from the root to
-/// the current cell. A block entered at a root `3 − h` levels above its bottom (h = 1..3) leaves
-/// at most `2ʰ − 1 ≤ 7h/3` cells behind the one the walk descends through, and validation bounds
-/// the tree's depth by [`MAX_DEPTH`]; the last block leaves at most 7, and a push writes 8 lanes.
-#[derive(Clone, Debug)]
-struct Cells {
-    refs: [u32; CELLS_CAP],
-    tmin: [f32; CELLS_CAP],
-    tmax: [f32; CELLS_CAP],
-    len: usize,
+/// The cells one block left for later, as pushed: reference, entry and exit per lane, nearest
+/// last, and how many are left.
+#[derive(Clone, Copy, Debug)]
+struct Group {
+    refs: [u32; 8],
+    tmin: [f32; 8],
+    tmax: [f32; 8],
+    left: usize,
 }
 
-const CELLS_CAP: usize = 3 * MAX_DEPTH + 16;
+/// The cells a ray has yet to visit, a group per block: a block's cells are pushed by one 8-wide
+/// store each of references, entries and exits. (One `heapless` vector, so that starting a ray
+/// writes no memory: three vectors side by side had the compiler clear two of their buffers for
+/// every ray, 6 % of the time of the dragon's primary rays.)
+///
+/// Capacity: the groups on the stack are those of the blocks on the way from the root to the
+/// current cell, each at least one level deep, and validation bounds the tree's depth by
+/// [`MAX_DEPTH`].
+#[derive(Clone, Debug)]
+struct Cells(heapless::Vec<Group, { MAX_DEPTH + 1 }>);
 
 impl Cells {
-    const EMPTY: Self = Self {
-        refs: [0; CELLS_CAP],
-        tmin: [0.0; CELLS_CAP],
-        tmax: [0.0; CELLS_CAP],
-        len: 0,
-    };
-
     /// Pushes the first `n` lanes (the last on top).
     #[inline(always)]
     fn push8(&mut self, refs: u32x8, tmin: f32x8, tmax: f32x8, n: usize) {
-        let at = self.len;
-        // Within capacity for every validated tree (see above); if not, nothing is pushed.
-        if let (Some(r), Some(a), Some(b)) = (
-            self.refs.get_mut(at..at + 8),
-            self.tmin.get_mut(at..at + 8),
-            self.tmax.get_mut(at..at + 8),
-        ) {
-            r.copy_from_slice(&refs.to_array());
-            a.copy_from_slice(&tmin.to_array());
-            b.copy_from_slice(&tmax.to_array());
-            self.len = at + n;
+        if n > 0 {
+            // Within capacity for every validated tree (see above).
+            let _ = self.0.push(Group {
+                refs: refs.to_array(),
+                tmin: tmin.to_array(),
+                tmax: tmax.to_array(),
+                left: n,
+            });
         }
     }
 
     #[inline(always)]
     fn pop(&mut self) -> Option<(u32, f32, f32)> {
-        let i = self.len.checked_sub(1)?;
-        self.len = i;
-        Some((self.refs[i], self.tmin[i], self.tmax[i]))
+        let top = self.0.last_mut()?;
+        let i = (top.left - 1) & 7;
+        top.left = i;
+        let cell = (top.refs[i], top.tmin[i], top.tmax[i]);
+        if i == 0 {
+            self.0.pop();
+        }
+        Some(cell)
     }
 }
 
@@ -206,7 +205,7 @@ impl Stepper for Blocks<'_, '_> {
             tmax: 0.0,
             best_t: 0.0,
             phase: phase::START,
-            stack: Cells::EMPTY,
+            stack: Cells(heapless::Vec::new()),
         }
     }
 
@@ -224,7 +223,7 @@ impl Stepper for Blocks<'_, '_> {
         (s.tmin, s.tmax, s.best_t) = (tmin, tmax, ray.tmax);
         s.at = super::reference(kind::BLOCK, 0);
         s.phase = phase::START;
-        s.stack.len = 0;
+        s.stack.0.clear();
         true
     }
 
