@@ -238,15 +238,17 @@ impl Stepper for Blocks<'_, '_> {
         // The node walk's skip of a node entered beyond the closest candidate (see there).
         if s.best_t < entry_with_slack(s.tmin) {
             s.phase = phase::START;
-            return self.next_pending::<HIDE>(s, false);
+            return self.next_pending::<HIDE>(s);
         }
         let r = s.at;
         let value = r >> 2;
         let one = [value];
         let prims: LeafPrims = match r & 3 {
             kind::BLOCK => {
-                let pushed = self.enter::<C>(s, value);
-                return self.next_pending::<HIDE>(s, pushed);
+                if self.enter::<C>(s, value) {
+                    return Progress::Near;
+                }
+                return self.next_pending::<HIDE>(s);
             }
             kind::LEAF => {
                 if HIDE && s.phase == phase::START {
@@ -285,14 +287,14 @@ impl Stepper for Blocks<'_, '_> {
         if stop {
             return Progress::Done;
         }
-        self.next_pending::<HIDE>(s, false)
+        self.next_pending::<HIDE>(s)
     }
 }
 
 impl Blocks<'_, '_> {
-    /// Decides the block and root slot of `value` (a block reference's value) for the ray at
-    /// `s.at` with its interval, and pushes the cells it enters, nearest on top (see the module
-    /// doc); returns whether it pushed any.
+    /// Decides the block and root slot of `value` (a block reference's value) for the ray with
+    /// the interval in `s` (see the module doc): moves `s` to the nearest cell it enters and
+    /// pushes the others; false when it enters none.
     #[inline(always)]
     fn enter<C: Contents>(&self, s: &mut BlockState, value: u32) -> bool {
         let blocks = self.0.blocks();
@@ -327,12 +329,25 @@ impl Blocks<'_, '_> {
         let enter = (cells & valid).simd_eq(valid)
             & !(refs & three).simd_eq(three)
             & bytemuck::cast::<_, u32x8>(lo.simd_le(hi));
-        // The lanes in the node walk's order, then the entered ones farthest first.
+        // The lanes in the node walk's order: the nearest entered one is taken at once (from
+        // registers and the block's line, not through the stack), the others pushed farthest
+        // first.
         let fields = u32x8::new(FIELD_SHIFT);
         let seven = u32x8::splat(7);
-        let order = (u32x8::splat(ORDER[neg as usize]) >> fields) & seven;
-        let entered = enter.shuffle(order).to_bitmask();
-        let picked = (u32x8::splat(COMPACT[(entered & 0xff) as usize]) >> fields) & seven;
+        let order_word = ORDER[neg as usize];
+        let order = (u32x8::splat(order_word) >> fields) & seven;
+        let entered = enter.shuffle(order).to_bitmask() & 0xff;
+        if entered == 0 {
+            return false;
+        }
+        let nearest = (order_word >> (3 * entered.trailing_zeros())) & 7;
+        let first = |v: f32x8| -> f32 {
+            let v: u32x8 = bytemuck::cast(v);
+            f32::from_bits(v.shuffle(u32x8::splat(nearest)).to_array()[0])
+        };
+        (s.at, s.tmin, s.tmax) = (block[REFS_WORD + nearest as usize], first(lo), first(hi));
+        let rest = entered & (entered - 1);
+        let picked = (u32x8::splat(COMPACT[rest as usize]) >> fields) & seven;
         let lanes = order.shuffle(picked);
         let cast =
             |v: f32x8| -> f32x8 { bytemuck::cast(bytemuck::cast::<_, u32x8>(v).shuffle(lanes)) };
@@ -340,21 +355,20 @@ impl Blocks<'_, '_> {
             refs.shuffle(lanes),
             cast(lo),
             cast(hi),
-            entered.count_ones() as usize,
+            rest.count_ones() as usize,
         );
-        entered != 0
+        true
     }
 
-    /// Takes the next pending cell, or ends the walk. After a block that pushed cells the next
-    /// is its nearest, whose block (if one) was asked for with its parent: [`Progress::Near`];
-    /// otherwise a child block is asked for with `HIDE` and read at the next step.
+    /// Takes the next pending cell, or ends the walk: a child block is asked for with `HIDE` and
+    /// read at the next step ([`Progress::Far`]); a leaf asks for its own loads.
     #[inline(always)]
-    fn next_pending<const HIDE: bool>(&self, s: &mut BlockState, fresh: bool) -> Progress {
+    fn next_pending<const HIDE: bool>(&self, s: &mut BlockState) -> Progress {
         let Some((at, tmin, tmax)) = s.stack.pop() else {
             return Progress::Done;
         };
         (s.at, s.tmin, s.tmax) = (at, tmin, tmax);
-        if fresh || at & 3 != kind::BLOCK {
+        if at & 3 != kind::BLOCK {
             return Progress::Near;
         }
         if HIDE && let Some(b) = self.0.blocks().get((at >> 5) as usize) {
