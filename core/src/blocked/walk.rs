@@ -88,16 +88,21 @@ fn widen8(t: f32x8) -> (f32x8, f32x8) {
     )
 }
 
-/// Asks the cache for the child blocks of `block` as the walk enters it, so that the one it
-/// descends to (and the far ones it may come back to) are on their way while it decides the
-/// block (Embree prefetches the children of a BVH node the same way). On the dragon's diffuse
-/// rays: 661 → 621 ms (docs/BENCHMARKS.md, "Cache-line blocks").
+/// Asks the cache for the child blocks of `block` (block `index`) as the walk enters it, so that
+/// the one it descends to (and the far ones it may come back to) are on their way while it
+/// decides the block (Embree prefetches the children of a BVH node the same way). On the
+/// dragon's diffuse rays: 661 → 621 ms (docs/BENCHMARKS.md, "Cache-line blocks"). Eight
+/// prefetches, a reference that is no block asking for the block itself (in cache), so that no
+/// branch depends on the references' kinds.
 #[inline(always)]
-fn prefetch_children(blocks: &[Block], block: &Block) {
+fn prefetch_children(blocks: &[Block], block: &Block, index: usize) {
     for &r in &block[REFS_WORD..] {
-        if r & 3 == kind::BLOCK
-            && let Some(c) = blocks.get((r >> 5) as usize)
-        {
+        let child = if r & 3 == kind::BLOCK {
+            (r >> 5) as usize
+        } else {
+            index
+        };
+        if let Some(c) = blocks.get(child) {
             crate::prefetch::t0(c);
         }
     }
@@ -298,8 +303,9 @@ impl Blocks<'_, '_> {
     #[inline(always)]
     fn enter<C: Contents>(&self, s: &mut BlockState, value: u32) -> bool {
         let blocks = self.0.blocks();
-        let block = &blocks[(value >> 3) as usize];
-        prefetch_children(blocks, block);
+        let index = (value >> 3) as usize;
+        let block = &blocks[index];
+        prefetch_children(blocks, block, index);
         let (d, inv) = plane_distances(block, s.origin, s.inv);
         let flags = block[AXES_WORD];
         // Which lanes the subtree reaches and which levels bound them; which slots' near child
