@@ -39,7 +39,7 @@ const fn level(s: usize) -> usize {
 /// is a child the subtree reaches (a reference position, or the leftmost bottom position of a
 /// leaf slot, `lm(p)`); bit `8 (k + 1) + i` says that the slot at level `k` above a reached lane
 /// `i` is an interior node of the subtree, so that its plane bounds the lane's interval.
-const fn cells(root: usize, not_interior: usize) -> u32 {
+pub const fn cells(root: usize, not_interior: usize) -> u32 {
     if root >= SLOTS {
         return 0;
     }
@@ -84,8 +84,9 @@ pub static CELLS: [[u32; 128]; 8] = {
     t
 };
 
-/// Lane valid bit and per-level active bits of [`CELLS`] entries, for the lane masks.
+/// Lane `i`'s bit in a [`CELLS`] entry saying it is reached, for the lane masks.
 pub const VALID_BIT: [u32; 8] = lane_bits(0);
+/// Per level, lane `i`'s bit in a [`CELLS`] entry saying the slot above it bounds it.
 pub const ACTIVE_BIT: [[u32; 8]; 3] = [lane_bits(8), lane_bits(16), lane_bits(24)];
 
 const fn lane_bits(shift: usize) -> [u32; 8] {
@@ -98,10 +99,11 @@ const fn lane_bits(shift: usize) -> [u32; 8] {
     b
 }
 
-/// Per level `k`: the slot above each lane (the index that gathers its plane distance), its bit
-/// in a 7-bit set of slots, and whether the lane lies on the slot's above side (all ones).
+/// Per level `k`: the slot above each lane (the index that gathers its plane distance).
 pub const SLOT: [[u32; 8]; 3] = [level_slots(0), level_slots(1), level_slots(2)];
+/// Per level: the bit of the slot above each lane in a 7-bit set of slots.
 pub const SLOT_BIT: [[u32; 8]; 3] = [slot_bits(0), slot_bits(1), slot_bits(2)];
+/// Per level: all ones where the lane lies on the above side of the slot above it.
 pub const ABOVE: [[u32; 8]; 3] = [above(0), above(1), above(2)];
 
 const fn level_slots(k: usize) -> [u32; 8] {

@@ -19,10 +19,11 @@
 //!   and its interval is not empty. The node walk enters a child when each plane on the way keeps
 //!   the interval non-empty, comparing each new bound with the bounds set above it; that is every
 //!   pair of bounds on the path, so the same cells as `entry ≤ exit` of the lane's interval.
-//! - the entered lanes are pushed on the stack with their intervals, in one 8-wide store each,
-//!   farthest first, in the node walk's depth-first order (near child first at every slot), so
-//!   the walk reaches leaves in exactly the node walk's order, with the same intervals; a sort by
-//!   entry distance would change which of two primitives at the same `t` is found first.
+//! - the nearest entered lane becomes the ray's next cell at once, the others are pushed on the
+//!   stack with their intervals, one 8-wide store each, farthest first, all in the node walk's
+//!   depth-first order (near child first at every slot), so the walk reaches leaves in exactly
+//!   the node walk's order, with the same intervals; a sort by entry distance would change which
+//!   of two primitives at the same `t` is found first.
 //!
 //! Every pending item is then a reference (a child block with its root slot, or a leaf); popping
 //! one applies the node walk's skip of a node entered beyond the closest candidate
