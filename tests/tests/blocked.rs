@@ -12,7 +12,7 @@ use kdray_core::blocked::{self, AXES_WORD, BLOCK_WORDS, REFS_WORD, kind};
 use kdray_core::format::{FormatError, VERSION, contents, header, seal};
 use kdray_core::stream::{self, Config, InFlight, Packets};
 use kdray_core::traverse::Mode;
-use kdray_core::{Hit, Scene};
+use kdray_core::{Hit, Ray, Scene};
 use kdray_tests::strategies::{grid_geometry, traversal_ray};
 use proptest::prelude::*;
 
@@ -94,7 +94,12 @@ proptest! {
 /// A scene deep enough for several levels of blocks: 300 triangles scattered on a grid, many
 /// overlapping (so that some leaves hold several).
 fn scattered() -> Geometry {
-    let triangles = (0..300)
+    scattered_first(300)
+}
+
+/// The first `n` triangles of [`scattered`].
+fn scattered_first(n: usize) -> Geometry {
+    let triangles = (0..n)
         .map(|i| {
             let p = Vec3::new(
                 (i * 7 % 9) as f32,
@@ -112,6 +117,109 @@ fn scattered() -> Geometry {
         triangles,
         ..Geometry::default()
     }
+}
+
+/// Which shapes the blocks of `blocks` have: a leaf slot at level 1, at level 2, a root at
+/// level 1, at level 2, an empty leaf.
+fn block_shapes(blocks: &[blocked::Block]) -> [bool; 5] {
+    let mut seen = [false; 5];
+    for b in blocks {
+        for s in 1..7 {
+            let parent = (s - 1) / 2;
+            let level = if s < 3 { 0 } else { 1 };
+            if blocked::is_interior(b, parent) && !blocked::is_interior(b, s) {
+                seen[level] = true;
+            }
+            if blocked::is_root(b, s) {
+                seen[2 + level] = true;
+            }
+        }
+        seen[4] |= (1..15).any(|p| blocked::is_empty_at(b, p));
+    }
+    seen
+}
+
+/// Rays on and across the integer planes of [`scattered`]: from grid points and points between,
+/// along the axes (±0 components) and diagonals, so that many lie in split planes.
+fn grid_rays() -> Vec<Ray> {
+    let dirs = [
+        Vec3::X,
+        -Vec3::Y,
+        Vec3::Z,
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+        Vec3::new(0.0, -1.0, -1.0),
+        Vec3::new(1.0, 2.0, 3.0),
+        Vec3::new(-3.0, 1.0, -2.0),
+        Vec3::new(-0.0, 0.5, -0.0),
+    ];
+    let mut rays = Vec::new();
+    for i in 0..60 {
+        let o = Vec3::new(
+            (i * 5 % 11) as f32 - 1.0,
+            (i * 3 % 9) as f32 - 1.0,
+            (i * 7 % 13) as f32 - 1.0,
+        ) + if i % 3 == 0 {
+            Vec3::splat(0.5)
+        } else {
+            Vec3::ZERO
+        };
+        for d in dirs {
+            rays.push(Ray::new(o, d.normalize()));
+            rays.push(Ray::new(o, -d.normalize()).with_range(-1.5, 4.0));
+        }
+    }
+    rays
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(48)))]
+
+    /// Trees of every size up to several blocks, with leaves high and low in blocks and shared
+    /// blocks of packed subtrees (see `block_shapes_are_all_covered`): the walk deciding a
+    /// block's cells at once returns the node walk's hits, one ray at a time and interleaved.
+    #[test]
+    fn blocks_of_every_shape_return_the_node_walks_hits(
+        n in 1usize..300,
+        isect in prop_oneof![Just(2.0), Just(20.0), Just(80.0), Just(400.0)],
+    ) {
+        let (nodes, blocks) = both_layouts(&scattered_first(n), isect);
+        let classic = Scene::from_words(&nodes).unwrap();
+        let blocked = Scene::from_words(&blocks).unwrap();
+        let rays = grid_rays();
+        for mode in [Mode::Fast, Mode::Watertight] {
+            let want: Vec<[u32; 4]> = rays.iter().map(|r| bits(&classic.intersect_in(mode, r))).collect();
+            let got: Vec<[u32; 4]> = rays.iter().map(|r| bits(&blocked.intersect_in(mode, r))).collect();
+            prop_assert_eq!(&got, &want, "{:?}", mode);
+            let mut hits = vec![Hit::MISS; rays.len()];
+            stream::intersect_interleaved(&blocked, mode, InFlight::Eight, &rays, &mut hits).unwrap();
+            let got: Vec<[u32; 4]> = hits.iter().map(bits).collect();
+            prop_assert_eq!(&got, &want, "interleaved {:?}", mode);
+            for r in &rays {
+                prop_assert_eq!(classic.occluded_in(mode, r), blocked.occluded_in(mode, r));
+            }
+        }
+    }
+}
+
+/// The scenes of `blocks_of_every_shape_return_the_node_walks_hits` hold every shape of block the
+/// walk masks lanes for.
+#[test]
+fn block_shapes_are_all_covered() {
+    let mut seen = [false; 5];
+    for n in (1..300).step_by(7) {
+        for isect in [2.0, 20.0, 80.0, 400.0] {
+            let (_, words) = both_layouts(&scattered_first(n), isect);
+            let scene = Scene::from_words(&words).unwrap();
+            for (s, b) in seen.iter_mut().zip(block_shapes(scene.blocks())) {
+                *s |= b;
+            }
+        }
+    }
+    assert_eq!(
+        seen, [true; 5],
+        "leaf at 1, leaf at 2, root at 1, root at 2, empty"
+    );
 }
 
 /// The blocked words of [`scattered`] and the word offset of its blocks section.

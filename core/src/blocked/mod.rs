@@ -51,6 +51,8 @@
 //! decisions of the walk over nodes, plane for plane ([`walk`]), on a tree that unfolds to
 //! exactly the node tree, so it is bounded as that one is.
 
+#[cfg(feature = "blocked")]
+pub mod lanes;
 pub mod validate;
 #[cfg(feature = "blocked")]
 pub mod walk;
