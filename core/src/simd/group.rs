@@ -1,6 +1,6 @@
 //! One ray against a group of four triangles ([`crate::group`]) in one pass of the 4-wide
 //! kernels: the ray splat, the triangles in the lanes. The lane arithmetic is the packet kernels'
-//! ([`super::kernels::moller_trumbore_lanes`], [`super::watertight::watertight_lanes`]), which
+//! (`moller_trumbore_lanes`, `watertight_lanes`), which
 //! round as the scalar kernels do, so lane `j` hits exactly when the scalar kernel hits the ray
 //! with triangle `j`, with bit-identical `t`, `u`, `v` (`tests/tests/groups.rs`).
 //!
