@@ -22,6 +22,7 @@
 //! twice or not at all).
 
 use glam::Vec3;
+use kdray_core::format::LeafPrims;
 use kdray_core::traverse::{Contents, Triangles, Watertight};
 use kdray_core::walk::{Query, Stepper};
 use kdray_core::watertight::Shear;
@@ -96,8 +97,9 @@ struct Every<'h> {
 }
 
 impl Query for Every<'_> {
-    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: &[u32]) -> (f32, bool) {
-        for &prim in prims {
+    fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
+        // Every primitive, one at a time, whether the leaf lists them or holds them in groups.
+        for prim in prims.ids() {
             if self.hits.iter().any(|h| h.prim == prim) {
                 continue;
             }

@@ -123,7 +123,7 @@ pub fn build_words(tris: Vec<[Vec3; 3]>, layout: Layout) -> Result<Vec<u32>, Str
     };
     let tree = build::build(&geom, &params, None)?;
     // The build time field of the header: not measured here (wasm32 has no clock in std).
-    let words = flat::serialize_as(&tree, &geom, 0.0, layout)?;
+    let words = flat::serialize_as(&tree, &geom, 0.0, layout, flat::Leaves::List)?;
     if let Err(e) = kdray_core::Scene::from_words(&words) {
         return Err(format!(
             "the built tree does not validate ({e}): please report this mesh"
