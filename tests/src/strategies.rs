@@ -167,3 +167,26 @@ pub fn traversal_ray() -> impl Strategy<Value = Ray> {
     (origin, axis_biased_direction(), range)
         .prop_map(|(o, d, (t0, t1))| Ray::new(o, d).with_range(t0, t1))
 }
+
+/// The first `n` of 300 triangles scattered on a grid, many overlapping, so that leaves hold
+/// several and trees are several levels deep (the blocks' and the groups' tests).
+pub fn scattered_triangles(n: usize) -> Geometry {
+    let triangles = (0..n)
+        .map(|i| {
+            let p = Vec3::new(
+                (i * 7 % 9) as f32,
+                (i * 11 % 7) as f32,
+                (i * 13 % 11) as f32,
+            );
+            [
+                p,
+                p + Vec3::new(1.7, 0.1, 0.0),
+                p + Vec3::new(0.0, 1.6, 0.3),
+            ]
+        })
+        .collect();
+    Geometry {
+        triangles,
+        ..Geometry::default()
+    }
+}

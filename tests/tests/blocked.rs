@@ -13,7 +13,7 @@ use kdray_core::format::{FormatError, VERSION, contents, header, seal};
 use kdray_core::stream::{self, Config, InFlight, Packets};
 use kdray_core::traverse::Mode;
 use kdray_core::{Hit, Ray, Scene};
-use kdray_tests::strategies::{grid_geometry, traversal_ray};
+use kdray_tests::strategies::{grid_geometry, scattered_triangles, traversal_ray};
 use proptest::prelude::*;
 
 /// Both layouts of `geom`'s tree, built once.
@@ -94,29 +94,7 @@ proptest! {
 /// A scene deep enough for several levels of blocks: 300 triangles scattered on a grid, many
 /// overlapping (so that some leaves hold several).
 fn scattered() -> Geometry {
-    scattered_first(300)
-}
-
-/// The first `n` triangles of [`scattered`].
-fn scattered_first(n: usize) -> Geometry {
-    let triangles = (0..n)
-        .map(|i| {
-            let p = Vec3::new(
-                (i * 7 % 9) as f32,
-                (i * 11 % 7) as f32,
-                (i * 13 % 11) as f32,
-            );
-            [
-                p,
-                p + Vec3::new(1.7, 0.1, 0.0),
-                p + Vec3::new(0.0, 1.6, 0.3),
-            ]
-        })
-        .collect();
-    Geometry {
-        triangles,
-        ..Geometry::default()
-    }
+    scattered_triangles(300)
 }
 
 /// Which shapes the blocks of `blocks` have: a leaf slot at level 1, at level 2, a root at
@@ -183,7 +161,7 @@ proptest! {
         n in 1usize..300,
         isect in prop_oneof![Just(2.0), Just(20.0), Just(80.0), Just(400.0)],
     ) {
-        let (nodes, blocks) = both_layouts(&scattered_first(n), isect);
+        let (nodes, blocks) = both_layouts(&scattered_triangles(n), isect);
         let classic = Scene::from_words(&nodes).unwrap();
         let blocked = Scene::from_words(&blocks).unwrap();
         let rays = grid_rays();
@@ -209,7 +187,7 @@ fn block_shapes_are_all_covered() {
     let mut seen = [false; 5];
     for n in (1..300).step_by(7) {
         for isect in [2.0, 20.0, 80.0, 400.0] {
-            let (_, words) = both_layouts(&scattered_first(n), isect);
+            let (_, words) = both_layouts(&scattered_triangles(n), isect);
             let scene = Scene::from_words(&words).unwrap();
             for (s, b) in seen.iter_mut().zip(block_shapes(scene.blocks())) {
                 *s |= b;

@@ -15,8 +15,10 @@ use kdray_core::simd::{HitPacket, RayPacket, f32x8};
 use kdray_core::stream::{self, Config, InFlight, Packets};
 use kdray_core::traverse::Mode;
 use kdray_core::watertight::{Shear, intersect_sheared};
-use kdray_core::{Hit, Ray, Scene, Triangle};
-use kdray_tests::strategies::{any_vec3, grid_geometry, grid_point, traversal_ray, vec3};
+use kdray_core::{Hit, Scene, Triangle};
+use kdray_tests::strategies::{
+    any_vec3, grid_geometry, grid_point, scattered_triangles, traversal_ray, vec3,
+};
 use proptest::prelude::*;
 
 fn bits(h: &Hit) -> [u32; 4] {
@@ -169,30 +171,8 @@ proptest! {
     }
 }
 
-/// A scene whose leaves hold several triangles: 300 triangles scattered on a grid, overlapping.
-fn scattered() -> Geometry {
-    let triangles = (0..300)
-        .map(|i| {
-            let p = Vec3::new(
-                (i * 7 % 9) as f32,
-                (i * 11 % 7) as f32,
-                (i * 13 % 11) as f32,
-            );
-            [
-                p,
-                p + Vec3::new(1.7, 0.1, 0.0),
-                p + Vec3::new(0.0, 1.6, 0.3),
-            ]
-        })
-        .collect();
-    Geometry {
-        triangles,
-        ..Geometry::default()
-    }
-}
-
 fn grouped_words() -> (Vec<u32>, usize) {
-    let [_, words] = both_leaves(&scattered(), 20.0, 4, Layout::Nodes);
+    let [_, words] = both_leaves(&scattered_triangles(300), 20.0, 4, Layout::Nodes);
     assert_ne!(words[header::CONTENTS] & contents::GROUPS, 0);
     assert_eq!(
         words[header::INDEX_COUNT],
@@ -274,7 +254,7 @@ fn a_leaf_naming_another_leafs_groups_is_refused() {
 
 #[test]
 fn groups_need_a_scene_of_triangles_only() {
-    let mut geom = scattered();
+    let mut geom = scattered_triangles(300);
     geom.spheres.push((Vec3::splat(3.0), 1.0));
     let tree = build(&geom, &BuildParams::default(), None).unwrap();
     let err = serialize_as(&tree, &geom, 0.0, Layout::Nodes, Leaves::Groups).unwrap_err();
@@ -299,5 +279,4 @@ fn a_group_holds_its_lanes_as_the_triangles_section_does() {
     assert_eq!(group::groups_for(1), 0);
     assert_eq!(group::groups_for(2), 1);
     assert_eq!(group::groups_for(5), 2);
-    let _ = Ray::new(Vec3::ZERO, Vec3::X);
 }
