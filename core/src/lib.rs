@@ -33,11 +33,11 @@
 //! assert!(!scene.occluded(&ray.with_range(0.0, 1.5)));
 //! ```
 //!
-//! Four or eight rays at once: [`simd`]; many rays, sorted into packets for you: [`stream`];
-//! images: [`render`] (with a camera from [`camera`] and the materials and lights of a scene, or
-//! a render description from `kdray build --description`, [`description`]). The examples
-//! (`cargo run --example trace_kdt` for this crate; `triangles` and `render_buffer` in `kdray`)
-//! show each way in a short program.
+//! Four or eight rays at once: [`simd`]; many rays, sorted into packets for you:
+//! [`traverse::stream`]; images: [`render`] (with a camera from [`camera`] and the materials and
+//! lights of a scene, or a render description from `kdray build --description`, [`description`]).
+//! The examples (`cargo run --example trace_kdt` for this crate; `triangles` and
+//! `render_buffer` in `kdray`) show each way in a short program.
 //!
 //! [`kdray`]: https://docs.rs/kdray
 //!
@@ -58,12 +58,14 @@
 //! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (Rukin §5).
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
 //! - [`camera`]: pinhole, Rukin's fisheye and parallel cameras, its thick lens and lens array.
-//! - [`format`], [`node`]: the flat scene format and its validation; [`blocked`]: the
-//!   cache-line-blocked copy of the tree (three levels per 64-byte block) and its walk.
-//! - [`traverse`]: scalar closest-hit and any-hit traversal; [`walk`]: its walk as resumable
-//!   steps over an explicit state, shared by the one-ray walk and the interleaved one.
-//! - [`stream`]: ray streams — many rays in one call, sorted into packets and interleaved single
-//!   rays, answers in input order; [`prefetch`]: the cache hint the interleaved walk issues.
+//! - [`format`], [`node`]: the flat scene format and its validation.
+//! - [`traverse`]: every walk of the tree, one module each, and what they share (its module doc
+//!   says which to use when): [`traverse::single`], one ray's closest or any hit;
+//!   [`traverse::steps`], that walk as resumable steps over an explicit state;
+//!   [`traverse::packet`], 4- and 8-wide packets; [`traverse::blocked`], the cache-line-blocked
+//!   copy of the tree (three levels per 64-byte block) and its walk; [`traverse::stream`], ray
+//!   streams — many rays in one call, sorted into packets and interleaved single rays, answers in
+//!   input order. [`prefetch`]: the cache hint the interleaved walk issues.
 //! - [`render`]: the render kernel, a path tracer writing into a caller's buffer.
 //! - [`description`]: the render description (camera, settings, materials, lights) that a target
 //!   reads next to the scene's words; [`words`]: bytes (`include_bytes!`, a fetch) viewed as
@@ -80,7 +82,6 @@
 // Hit tests are written as `!(x > y)` on purpose: NaN must fail them (see the crate doc).
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod blocked;
 pub mod camera;
 pub mod color;
 pub mod description;
@@ -97,10 +98,8 @@ pub mod sampling;
 pub mod simd;
 pub mod spawn;
 pub mod sphere;
-pub mod stream;
 pub mod traverse;
 pub mod triangle;
-pub mod walk;
 pub mod watertight;
 pub mod words;
 

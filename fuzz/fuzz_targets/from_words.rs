@@ -17,8 +17,8 @@
 
 use glam::Vec3;
 use kdray_core::format::seal;
-use kdray_core::stream::{self, InFlight};
 use kdray_core::traverse::Mode;
+use kdray_core::traverse::stream::{self, InFlight};
 use kdray_core::{Hit, Ray, Scene};
 use libfuzzer_sys::fuzz_target;
 

@@ -86,8 +86,8 @@ fn check<L: Lanes>(scene: &Scene, rays: &[Ray], scalar: &[Hit], occluded: &[bool
 /// the single-ray walk, and as [`packets_agree_with_scalar`] requires where packets may form.
 /// Occlusion must match too.
 pub fn stream_agrees_with_scalar(scene: &Scene, rays: &[Ray], scalar: &[Hit]) {
-    use kdray_core::stream::{self, Coherence, Config, InFlight, Packets};
     use kdray_core::traverse::Mode;
+    use kdray_core::traverse::stream::{self, Coherence, Config, InFlight, Packets};
     let bits = |h: &Hit| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits());
     let occluded: Vec<bool> = rays.iter().map(|r| scene.occluded(r)).collect();
     let n = rays.len();

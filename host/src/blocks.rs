@@ -1,16 +1,16 @@
 //! Cutting the serialized node tree into the 64-byte blocks of format v7's blocks section
-//! (`kdray_core::blocked`, where the encoding is documented). Each block takes the top three
-//! levels of the subtree it starts; below it, a subtree of three or more levels gets a block of
-//! its own, and the shallower ones (one or two levels) hanging below the same block are packed
+//! (`kdray_core::traverse::blocked`, where the encoding is documented). Each block takes the top
+//! three levels of the subtree it starts; below it, a subtree of three or more levels gets a block
+//! of its own, and the shallower ones (one or two levels) hanging below the same block are packed
 //! together into shared blocks (two-level ones at slots 1 and 2, one-level ones at 3..6). Blocks
 //! are numbered in the order a depth-first walk, below child first, first enters them: what
 //! validation requires.
 
-use kdray_core::blocked::{
+use kdray_core::node::Node;
+use kdray_core::traverse::blocked::{
     AXES_WORD, BLOCK_WORDS, Block, EMPTY, EMPTY_SHIFT, MAX_BLOCKS, MAX_VALUE, NO_SLOTS, REFS_WORD,
     SLOTS, kind, ref_index, reference,
 };
-use kdray_core::node::Node;
 
 /// The blocks of the tree in `nodes` (pre-order, as `flat::serialize` writes them).
 ///

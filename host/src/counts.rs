@@ -1,12 +1,12 @@
 //! What a closest-hit walk does per ray, counted (`kdray trace --counts`): interior steps, leaf
 //! visits, triangle groups and single primitive tests. The count runs the core's own single-ray
-//! walk over the node section ([`kdray_core::walk::Stepper`]), one step at a time, with a query
-//! that counts each leaf's work and hands it on to [`Closest`], so the walk counted is the walk
-//! traced (the blocks section, if any, is not walked: its steps are the nodes').
+//! walk over the node section ([`kdray_core::traverse::steps::Stepper`]), one step at a time, with
+//! a query that counts each leaf's work and hands it on to [`Closest`], so the walk counted is the
+//! walk traced (the blocks section, if any, is not walked: its steps are the nodes').
 
 use kdray_core::format::LeafPrims;
+use kdray_core::traverse::steps::{Closest, Progress, Query, Stepper};
 use kdray_core::traverse::{Contents, Mixed, Spheres, Triangles};
-use kdray_core::walk::{Closest, Progress, Query, Stepper};
 use kdray_core::{Ray, Scene};
 
 /// Totals over a set of rays.

@@ -13,7 +13,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// How the tree is stored: the node section alone, or also cut into cache-line blocks
-/// (`kdray_core::blocked`), which the single-ray queries then walk.
+/// (`kdray_core::traverse::blocked`), which the single-ray queries then walk.
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Layout {

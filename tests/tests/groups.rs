@@ -12,8 +12,8 @@ use kdray_core::format::{FormatError, contents, header, seal};
 use kdray_core::group::{self, GROUP_WORDS, PAD_ID, slot};
 use kdray_core::simd::group::{closest_in_group, intersect_group, intersect_group_watertight};
 use kdray_core::simd::{HitPacket, RayPacket, f32x8};
-use kdray_core::stream::{self, Config, InFlight, Packets};
 use kdray_core::traverse::Mode;
+use kdray_core::traverse::stream::{self, Config, InFlight, Packets};
 use kdray_core::watertight::{Shear, intersect_sheared};
 use kdray_core::{Hit, Scene, Triangle};
 use kdray_tests::strategies::{

@@ -5,7 +5,7 @@
 //! walks do). Short slices are errors, not panics.
 
 use glam::Vec3;
-use kdray_core::stream::{self, Coherence, Config, InFlight, Packets, StreamError};
+use kdray_core::traverse::stream::{self, Coherence, Config, InFlight, Packets, StreamError};
 use kdray_core::traverse::{Mixed, Mode, Watertight};
 use kdray_core::{Hit, Ray, Scene};
 use kdray_tests::strategies::{grid_geometry, packet_rays, scene_words};

@@ -79,7 +79,7 @@ pub enum FormatError {
         triangle: u32,
     },
     /// A block's axes word or an unused slot or reference breaks the layout
-    /// ([`crate::blocked`]), or a child block's root is not an interior node.
+    /// ([`crate::traverse::blocked`]), or a child block's root is not an interior node.
     BadBlockFlags {
         block: u32,
     },

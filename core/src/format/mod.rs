@@ -70,14 +70,14 @@
 //! - **Blocks** (CONTENTS bit `BLOCKED`, version 7): the same tree again, cut into 64-byte
 //!   blocks of three levels (7 planes, their axes in one word, 8 references to child blocks or
 //!   leaves), so that the single-ray walk loads one cache line per three levels
-//!   ([`crate::blocked`], where the encoding is documented). Leaves stay in the node section
-//!   (a reference names the leaf node, or holds a one-primitive leaf's id, or marks an empty
-//!   leaf). Validation requires the blocked tree to be the node tree exactly, so both walks
+//!   ([`crate::traverse::blocked`], where the encoding is documented). Leaves stay in the node
+//!   section (a reference names the leaf node, or holds a one-primitive leaf's id, or marks an
+//!   empty leaf). Validation requires the blocked tree to be the node tree exactly, so both walks
 //!   return the same hits. When present (and the core's `blocked` feature is on),
 //!   [`Scene::intersect`], [`Scene::occluded`] and the stream's interleaved single rays
-//!   ([`crate::stream`]) walk it; the packet walks use the nodes. The section starts on a multiple of 16 words, so the blocks
-//!   are cache lines when the words are 64-byte aligned (the host aligns them,
-//!   `kdray::flat::Aligned`).
+//!   ([`crate::traverse::stream`]) walk it; the packet walks use the nodes. The section starts on a
+//!   multiple of 16 words, so the blocks are cache lines when the words are 64-byte aligned (the
+//!   host aligns them, `kdray::flat::Aligned`).
 //! - **Groups** (CONTENTS bit `GROUPS`, version 9; only in a scene of triangles alone): a leaf's
 //!   triangles stored inline, four to a 44-word group in struct-of-arrays lanes
 //!   ([`crate::group`], where the layout is documented), so that the single-ray walk tests one ray
@@ -96,10 +96,10 @@
 //! index-list entries are checked once in one pass and a leaf only compares its range with where
 //! the previous leaf's ended (the tiling rule under **Indices**; a leaf's groups the same way,
 //! each group rebuilt from four triangle records and compared once); the blocks walk
-//! ([`crate::blocked::validate`]) takes one step per node and checks each block's layout once.
-//! In all about `c · W` word reads with a small constant `c` (the tests count them:
-//! `tests/tests/format.rs`). Before the tiling rule, 131,072 leaves naming one 500,000-entry
-//! range (a 4 MB file) cost 6.5·10¹⁰ checks; now it is refused at its second leaf with
+//! ([`crate::traverse::blocked::validate`]) takes one step per node and checks each block's layout
+//! once. In all about `c · W` word reads with a small constant `c` (the tests count them:
+//! `tests/tests/format.rs`). Before the tiling rule, 131,072 leaves naming one 500,000-entry range
+//! (a 4 MB file) cost 6.5·10¹⁰ checks; now it is refused at its second leaf with
 //! [`FormatError::IndexOrder`]. The same rule bounds a walk: the primitives one ray tests number at
 //! most INDEX_COUNT plus the leaf count.
 //!
@@ -122,10 +122,10 @@
 //!   other geometry, tree or ids than the ones the writer meant. Such a file traces, in bounded
 //!   time, to hits that are wrong for the intended scene but consistent for the one stored.
 
-use crate::blocked::Block;
 use crate::group::{self, Group};
 use crate::node::{LEAF, Node};
 use crate::sphere::Sphere;
+use crate::traverse::blocked::Block;
 use crate::triangle::Triangle;
 use glam::Vec3;
 
@@ -181,7 +181,8 @@ pub mod contents {
     pub const MATERIALS: u32 = 1 << 4;
     /// Triangles are stored in another order than the input's (the input-ids section).
     pub const INPUT_IDS: u32 = 1 << 5;
-    /// The tree is also stored cache-line-blocked (the blocks section, [`crate::blocked`]).
+    /// The tree is also stored cache-line-blocked (the blocks section,
+    /// [`crate::traverse::blocked`]).
     pub const BLOCKED: u32 = 1 << 6;
     /// Leaves hold their triangles in groups of four (the groups section, [`crate::group`]).
     pub const GROUPS: u32 = 1 << 7;
@@ -197,7 +198,7 @@ pub mod stride {
     pub const SPHERE: usize = 4;
     pub const NORMALS: usize = 9;
     pub const UVS: usize = 6;
-    pub const BLOCK: usize = crate::blocked::BLOCK_WORDS;
+    pub const BLOCK: usize = crate::traverse::blocked::BLOCK_WORDS;
     pub const GROUP: usize = crate::group::GROUP_WORDS;
 }
 
@@ -234,7 +235,7 @@ impl<'a> Scene<'a> {
         self.contents
     }
 
-    /// The blocks section ([`crate::blocked`]); empty when the file has none.
+    /// The blocks section ([`crate::traverse::blocked`]); empty when the file has none.
     #[inline(always)]
     pub fn blocks(&self) -> &'a [Block] {
         self.blocks

@@ -235,7 +235,7 @@ impl<'a> Scene<'a> {
             return Err(FormatError::BadDepth);
         }
         if contents & contents::BLOCKED != 0 {
-            crate::blocked::validate::validate(&scene, scene.blocks)?;
+            crate::traverse::blocked::validate::validate(&scene, scene.blocks)?;
         }
         Ok(scene)
     }

@@ -6,10 +6,11 @@
 //! - [`Bounces::Packets`] (the default): a pixel's samples eight at a time, side by side
 //!   (`render/pixel.rs`), each round of their camera, bounce and shadow rays one 8-wide packet, the lanes
 //!   of finished paths masked;
-//! - [`Bounces::Stream`]: many pixels' paths as one wavefront ([`Wavefront`], `render/wavefront.rs`), each round of all
-//!   their rays one ray stream ([`crate::stream`]), which sorts the incoherent bounce and shadow
-//!   rays into one-octant packets — the fastest where the caller can hold a wavefront
-//!   (`kdray render`'s default);
+//! - [`Bounces::Stream`]: many pixels' paths as one wavefront ([`Wavefront`],
+//!   `render/wavefront.rs`), each round of all their rays one ray stream
+//!   ([`crate::traverse::stream`]), which sorts the incoherent bounce and shadow rays into
+//!   one-octant packets — the fastest where the caller can hold a wavefront (`kdray render`'s
+//!   default);
 //! - [`Bounces::SingleRays`]: every ray through the scalar walk ([`Scene::intersect`]).
 //!
 //! One path vertex function (`render/path.rs`) serves all three.
@@ -131,13 +132,13 @@ pub enum Bounces {
     /// a packet costs eight rays' work however few of its lanes are live.
     SingleRays,
     /// Many pixels' paths advance as one wavefront ([`Wavefront`]): each round of all their
-    /// bounce rays, and of all their shadow rays, is one ray stream ([`crate::stream`]: coherent
-    /// runs as packets, the rest sorted by octant and origin into one-octant packets, what is
-    /// left as interleaved single rays). Measured 1.1× (dragon scene) to 1.4× (default scene)
-    /// the speed of [`Bounces::Packets`] on one thread with 2048-path wavefronts. Needs many
-    /// pixels at once: [`render_rows`] (a wavefront of [`ROWS_WAVEFRONT`] paths on the stack) and
-    /// [`Frame::add_pixels`] (the caller's wavefront); [`Frame::add_samples`], one pixel, traces
-    /// as [`Bounces::Packets`].
+    /// bounce rays, and of all their shadow rays, is one ray stream ([`crate::traverse::stream`]:
+    /// coherent runs as packets, the rest sorted by octant and origin into one-octant packets, what
+    /// is left as interleaved single rays). Measured 1.1× (dragon scene) to 1.4× (default scene)
+    /// the speed of [`Bounces::Packets`] on one thread with 2048-path wavefronts. Needs many pixels
+    /// at once: [`render_rows`] (a wavefront of [`ROWS_WAVEFRONT`] paths on the stack) and
+    /// [`Frame::add_pixels`] (the caller's wavefront); [`Frame::add_samples`], one pixel, traces as
+    /// [`Bounces::Packets`].
     Stream,
 }
 

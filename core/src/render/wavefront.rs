@@ -1,6 +1,6 @@
 //! Many pixels' paths advancing as one wavefront ([`Bounces::Stream`](super::Bounces::Stream)):
-//! each round, all live paths' rays are one ray stream ([`crate::stream`]), and so are all the
-//! shadow rays the round's vertices ask for.
+//! each round, all live paths' rays are one ray stream ([`crate::traverse::stream`]), and so are
+//! all the shadow rays the round's vertices ask for.
 //!
 //! A pixel's eight side-by-side samples ([`super::pixel`]) make an 8-wide packet whose bounce
 //! rays start near one point but scatter over the hemisphere, so the packet's lanes soon part
@@ -20,8 +20,8 @@ use super::path::{Context, Path, Shadow, add_path, camera_path, vertex};
 use super::{Frame, SampleSums};
 use crate::camera::Camera;
 use crate::ray::{Hit, Ray};
-use crate::stream::{self, Config};
 use crate::traverse::Contents;
+use crate::traverse::stream::{self, Config};
 use core::ops::Range;
 use glam::Vec3;
 

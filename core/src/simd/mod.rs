@@ -9,6 +9,8 @@
 //! - [`group`]: one ray against a group of four triangles ([`crate::group`]), the same lane
 //!   arithmetic with the ray splat and the triangles in the lanes.
 //!
+//! The packet walk of the kd-tree, built on these, is [`crate::traverse::packet`].
+//!
 //! `wide` chooses SSE, AVX, NEON, simd128 or a portable fallback at compile time from the enabled
 //! target features ([`crate::isa::name`] reports which); an 8-wide packet on a build without AVX
 //! runs as two 4-wide halves.
@@ -33,7 +35,6 @@ pub mod group;
 pub mod kernels;
 pub mod lanes;
 pub mod packet;
-pub mod traverse;
 pub mod watertight;
 
 pub use kernels::{PrimHits, intersect_sphere, intersect_triangle, record_closest};

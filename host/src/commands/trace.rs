@@ -5,8 +5,8 @@ use super::{parse_threads, pool};
 use kdray::error::{Error, Result};
 use kdray::{files, rays};
 use kdray_core::simd::{f32x4, f32x8};
-use kdray_core::stream::{self, InFlight, Packets};
 use kdray_core::traverse::Mode;
+use kdray_core::traverse::stream::{self, InFlight, Packets};
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -30,10 +30,10 @@ pub struct TraceArgs {
     /// Rays per packet: 1 (single rays), or 4 or 8 consecutive rays traced together.
     #[arg(long, default_value_t = 1, value_parser = parse_packet)]
     pub packet: u32,
-    /// Trace through the core's ray-stream API (`kdray_core::stream`): coherent runs as packets of
-    /// `--packet` rays (1: no packets), the rest sorted by direction octant, origin and direction,
-    /// its coherent runs as packets and the others as interleaved single rays. Hits are the same;
-    /// the time includes the sorting.
+    /// Trace through the core's ray-stream API (`kdray_core::traverse::stream`): coherent runs as
+    /// packets of `--packet` rays (1: no packets), the rest sorted by direction octant, origin and
+    /// direction, its coherent runs as packets and the others as interleaved single rays. Hits are
+    /// the same; the time includes the sorting.
     #[arg(long)]
     pub stream: bool,
     /// Single-ray walks in flight at once, interleaved so that their memory loads overlap: 1, 4,

@@ -125,12 +125,12 @@ fn main() {
     });
     // The ray-stream API with its defaults (same-octant 8-wide packets, 16 single-ray walks in
     // flight); the scratch is the caller's and made once, the sorting is timed.
-    let config = kdray_core::stream::Config::default();
+    let config = kdray_core::traverse::stream::Config::default();
     let most = sets.iter().map(|s| s.len()).max().unwrap_or(0);
-    let mut scratch = vec![0u64; kdray_core::stream::scratch_words(most)];
+    let mut scratch = vec![0u64; kdray_core::traverse::stream::scratch_words(most)];
     run("kdray stream", Family::Kdray, None, &mut |r, h| {
-        let words = kdray_core::stream::scratch_words(r.len());
-        kdray_core::stream::intersect(&scene, &config, r, h, &mut scratch[..words])
+        let words = kdray_core::traverse::stream::scratch_words(r.len());
+        kdray_core::traverse::stream::intersect(&scene, &config, r, h, &mut scratch[..words])
             .expect("stream buffers sized by scratch_words");
         to_input_ids(&scene, h);
     });
@@ -150,8 +150,8 @@ fn main() {
         to_input_ids(&grouped, h);
     });
     run("kdray groups stream", Family::Kdray, None, &mut |r, h| {
-        let words = kdray_core::stream::scratch_words(r.len());
-        kdray_core::stream::intersect(&grouped, &config, r, h, &mut scratch[..words])
+        let words = kdray_core::traverse::stream::scratch_words(r.len());
+        kdray_core::traverse::stream::intersect(&grouped, &config, r, h, &mut scratch[..words])
             .expect("stream buffers sized by scratch_words");
         to_input_ids(&grouped, h);
     });

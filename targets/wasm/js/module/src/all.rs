@@ -23,8 +23,8 @@
 
 use glam::Vec3;
 use kdray_core::format::LeafPrims;
+use kdray_core::traverse::steps::{Query, Stepper};
 use kdray_core::traverse::{Contents, Triangles, Watertight};
-use kdray_core::walk::{Query, Stepper};
 use kdray_core::watertight::Shear;
 use kdray_core::{Ray, Scene};
 
@@ -156,7 +156,9 @@ pub fn all_hits(scene: &Scene, ray: &Ray, watertight: bool, hits: &mut Vec<AllHi
 fn walk<C: Contents>(scene: &Scene, ray: &Ray, query: &mut impl Query) {
     let mut state = <Scene as Stepper>::empty_state();
     if scene.begin::<C>(ray, &mut state) {
-        while scene.step::<C, _, false>(&mut state, query) != kdray_core::walk::Progress::Done {}
+        while scene.step::<C, _, false>(&mut state, query)
+            != kdray_core::traverse::steps::Progress::Done
+        {}
     }
 }
 

@@ -24,8 +24,8 @@ use core::cell::RefCell;
 use glam::Vec3;
 use kdray::flat::Layout;
 use kdray_core::format::contents;
-use kdray_core::stream::{self, Config};
 use kdray_core::traverse::Mode;
+use kdray_core::traverse::stream::{self, Config};
 use kdray_core::{Hit, Ray, Scene};
 use std::collections::BTreeMap;
 

@@ -8,7 +8,7 @@ use crate::format::Scene;
 use crate::ray::{Hit, Ray};
 use crate::simd::{Lanes, RayPacket};
 use crate::traverse::Contents;
-use crate::walk::{Closest, Occlusion, Query};
+use crate::traverse::steps::{Closest, Occlusion, Query};
 
 /// A query answered for a whole stream: its per-ray answer, its single-ray query and its packet
 /// call.
@@ -94,7 +94,7 @@ fn singles<A: Answer, C: Contents, const N: usize>(
         }
     };
     #[cfg(feature = "blocked")]
-    if let Some(blocks) = crate::blocked::walk::Blocks::new(scene) {
+    if let Some(blocks) = crate::traverse::blocked::walk::Blocks::new(scene) {
         return interleave::run::<_, C, A::Q, N>(&blocks, rays, order, A::query::<C>, finish);
     }
     interleave::run::<_, C, A::Q, N>(scene, rays, order, A::query::<C>, finish);

@@ -1,8 +1,8 @@
 //! The single-ray kd-tree walk as resumable steps over an explicit state, so that one function
-//! serves both the one-ray walk ([`Scene::intersect`], [`Scene::occluded`]) and the interleaved
-//! walk that keeps many rays in flight (`stream/interleave.rs`). The two therefore do the
-//! same arithmetic and visit the same leaves in the same order, ray by ray: their hits are
-//! identical by construction, ties between primitives included.
+//! serves both the one-ray walk ([`super::single`]: [`Scene::intersect`], [`Scene::occluded`]) and
+//! the interleaved walk that keeps many rays in flight ([`super::stream`], `interleave.rs`). The
+//! two therefore do the same arithmetic and visit the same leaves in the same order, ray by ray:
+//! their hits are identical by construction, ties between primitives included.
 //!
 //! A step is one node: an interior node's plane decision, or a leaf's tests, then the next node
 //! (a child or a pending node from the stack). With `HIDE` (the interleaved walk) a step that pops
@@ -16,16 +16,16 @@
 //! compiles to the plain walk (the phases and prefetches are constants that fold away).
 //!
 //! Another node layout supplies its own walk by implementing [`Stepper`] (the blocks section's is
-//! [`crate::blocked::walk::Blocks`]); the one-ray walk and the interleaved driver are generic over
+//! [`super::blocked::walk::Blocks`]); the one-ray walk and the interleaved driver are generic over
 //! it.
 
+use super::{Contents, entry_interval, entry_with_slack, widen};
 use crate::format::{LeafPrims, MAX_DEPTH, Scene};
 use crate::group::Group;
 use crate::ray::{Hit, Ray};
 use crate::simd::f32x4;
 use crate::simd::group::{closest_in_group, intersect_group_watertight};
 use crate::simd::kernels::PrimHits;
-use crate::traverse::{Contents, entry_interval, entry_with_slack, widen};
 use crate::watertight::{self, Shear};
 use glam::Vec3;
 
@@ -338,18 +338,6 @@ impl Scene<'_> {
         Progress::Far
     }
 
-    /// Walks `ray` to the end for `query`, one step after another (the one-ray walk); over the
-    /// blocks when the scene has them and the core is built with the `blocked` feature
-    /// ([`crate::blocked::walk`]: the same decisions and hits).
-    #[inline(always)]
-    pub(crate) fn walk<C: Contents, Q: Query>(&self, ray: &Ray, query: &mut Q) {
-        #[cfg(feature = "blocked")]
-        if let Some(blocks) = crate::blocked::walk::Blocks::new(self) {
-            return walk_to_end::<_, C, Q>(&blocks, ray, query);
-        }
-        walk_to_end::<_, C, Q>(self, ray, query)
-    }
-
     /// Tests one primitive against `ray` given the ray's [`Shear`] (unused unless watertight).
     #[inline(always)]
     pub(crate) fn intersect_prim_sheared<C: Contents>(
@@ -370,15 +358,6 @@ impl Scene<'_> {
             return watertight::intersect_sheared(&self.vertices(prim), min_det2, ray, shear);
         }
         tri.intersect_prepared(ray, min_det2)
-    }
-}
-
-/// Walks `ray` over `layout` to the end for `query`, one plain step after another.
-#[inline(always)]
-fn walk_to_end<W: Stepper, C: Contents, Q: Query>(layout: &W, ray: &Ray, query: &mut Q) {
-    let mut state = W::empty_state();
-    if layout.begin::<C>(ray, &mut state) {
-        while layout.step::<C, Q, false>(&mut state, query) != Progress::Done {}
     }
 }
 

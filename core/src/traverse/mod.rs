@@ -1,5 +1,33 @@
-//! Scalar kd-tree traversal, closest hit and any hit, with a fixed stack: pbrt-v3's
-//! `KdTreeAccel::Intersect` (PBR 3rd ed., §4.4.3), with the cases it leaves to chance made exact.
+//! Traversal of the kd-tree: every way of walking it, and what the walks share.
+//!
+//! # The walks, and when to use which
+//! - [`single`]: one ray, closest hit ([`Scene::intersect`]) or any hit ([`Scene::occluded`]).
+//!   The default, and the best for incoherent rays (bounces, shadow rays towards many lights).
+//! - [`steps`]: the same walk as resumable steps over an explicit state ([`steps::Stepper`],
+//!   [`steps::Query`]), for code that drives a walk itself: a custom query at the leaves, counting
+//!   steps, or many rays' walks interleaved. [`single`] and the stream run these steps.
+//! - [`packet`]: 4 or 8 rays at once ([`Scene::intersect_packet`], over [`crate::simd::Lanes`]),
+//!   Wald's coherent packet walk; for rays that share an origin region and a direction octant,
+//!   such as a camera's tiles.
+//! - [`blocked`]: the cache-line-blocked copy of the tree (format v7's blocks section): its
+//!   encoding, its validation and its walk, a [`steps::Stepper`] that [`single`] and the stream
+//!   pick on their own when the scene has blocks and the `blocked` feature is on.
+//! - [`stream`]: many rays in one call, answers in input order: coherent runs as packets, the rest
+//!   sorted, and what is still incoherent as interleaved single-ray walks whose memory loads
+//!   overlap; for a renderer's rounds of rays.
+//!
+//! Every walk answers as [`single`] does: the interleaved and the block walks bit for bit, ties
+//! included, the packet walk with the same `t` bits (where two primitives tie at exactly that `t`
+//! it may report either).
+//!
+//! Shared by the walks, here: the [`Contents`] a walk is monomorphized for and the run-time
+//! [`Mode`]; the entry into the scene box ([`clip_to_box`]); the slack on a node's entry distance
+//! ([`ENTRY_SLACK`]); and the watertight walk's bracket of a split distance ([`widen`]). No walk
+//! takes these from another walk.
+//!
+//! # The rules every walk follows
+//! pbrt-v3's `KdTreeAccel::Intersect` (PBR 3rd ed., §4.4.3) with a fixed stack, with the cases it
+//! leaves to chance made exact.
 //!
 //! Deviations from pbrt-v3, each for a case it gets wrong or leaves undefined:
 //! - near and far children follow the sign of the direction, not the side of the origin, and the
@@ -19,9 +47,15 @@
 //! when the closest candidate lies before its entry; so the reported hit is always the closest
 //! (the argument of pbrt-v3's `ray.tMax < tMin` test, which stops the whole walk instead).
 
+pub mod blocked;
+pub mod packet;
+pub mod single;
+pub mod steps;
+pub mod stream;
+
+#[cfg(doc)]
 use crate::format::Scene;
-use crate::ray::{Hit, Ray};
-use crate::walk::{Closest, Occlusion, shear_for};
+use crate::ray::Ray;
 use glam::Vec3;
 
 /// `γ₃ = 3ε / (1 − 3ε)`, with ε half an f32 ULP (PBR 3rd ed., §3.9.1).
@@ -217,52 +251,4 @@ pub const ENTRY_SLACK: f32 = 1.0 / (1 << 18) as f32;
 #[inline(always)]
 pub fn entry_with_slack(tmin: f32) -> f32 {
     tmin - tmin.abs() * ENTRY_SLACK
-}
-
-impl Scene<'_> {
-    /// The closest hit along `ray` in `(ray.tmin, ray.tmax)`, or [`Hit::MISS`], in fast mode.
-    /// Picks the kernel monomorphized for the scene's contents.
-    #[inline]
-    pub fn intersect(&self, ray: &Ray) -> Hit {
-        self.intersect_in(Mode::Fast, ray)
-    }
-
-    /// Whether anything lies along `ray` in `(ray.tmin, ray.tmax)` (shadow rays), in fast mode.
-    #[inline]
-    pub fn occluded(&self, ray: &Ray) -> bool {
-        self.occluded_in(Mode::Fast, ray)
-    }
-
-    /// [`Scene::intersect`] in `mode`.
-    #[inline]
-    pub fn intersect_in(&self, mode: Mode, ray: &Ray) -> Hit {
-        by_contents!(self, mode, |C| self.intersect_with::<C>(ray))
-    }
-
-    /// [`Scene::occluded`] in `mode`.
-    #[inline]
-    pub fn occluded_in(&self, mode: Mode, ray: &Ray) -> bool {
-        by_contents!(self, mode, |C| self.occluded_with::<C>(ray))
-    }
-
-    /// Tests one primitive against `ray`, returning `(t, u, v)`.
-    #[inline(always)]
-    pub fn intersect_prim<C: Contents>(&self, prim: u32, ray: &Ray) -> Option<(f32, f32, f32)> {
-        self.intersect_prim_sheared::<C>(prim, ray, &shear_for::<C>(ray))
-    }
-
-    /// [`Scene::intersect`] for a fixed [`Contents`]; the caller promises the scene holds no other
-    /// kind of primitive (it would be tested as the wrong kind, never out of bounds).
-    pub fn intersect_with<C: Contents>(&self, ray: &Ray) -> Hit {
-        let mut query = Closest::new::<C>(ray);
-        self.walk::<C, _>(ray, &mut query);
-        query.hit()
-    }
-
-    /// [`Scene::occluded`] for a fixed [`Contents`].
-    pub fn occluded_with<C: Contents>(&self, ray: &Ray) -> bool {
-        let mut query = Occlusion::new::<C>(ray);
-        self.walk::<C, _>(ray, &mut query);
-        query.found()
-    }
 }

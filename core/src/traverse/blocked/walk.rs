@@ -1,7 +1,7 @@
 //! The walk over blocks: the walk of [`crate::traverse`] (pbrt-v3's, with its exact rules) on the
 //! blocked layout, one cache line per three levels, each block decided for one ray at once with
 //! no branch per slot, as resumable steps ([`Stepper`]), so that the one-ray walk and the
-//! interleaved walk of [`crate::stream`] both run it.
+//! interleaved walk of [`crate::traverse::stream`] both run it.
 //!
 //! **Entering a block** (at the root slot a block reference names, with the interval the ray
 //! enters it with) the walk computes the distances to its seven planes with one 8-wide operation
@@ -35,11 +35,11 @@
 //!
 //! A step is one block (its planes, cells and push), or one phase of a leaf. With `HIDE` (the
 //! interleaved walk) the steps that read far data end [`Progress::Far`] after asking the cache
-//! for it, as the node walk's do ([`crate::walk`]): a pop of a child block after a leaf (its
-//! block is read at the next step), and a leaf's loads: its node (a leaf is named by its node,
-//! see [`super`]), index list and triangles, one step each. Entering the nearest child of the
-//! block just decided is [`Progress::Near`]: the child blocks were asked for when the ray entered
-//! their parent (`prefetch_children`).
+//! for it, as the node walk's do ([`crate::traverse::steps`]): a pop of a child block after a leaf
+//! (its block is read at the next step), and a leaf's loads: its node (a leaf is named by its node,
+//! see [`super`]), index list and triangles, one step each. Entering the nearest child of the block
+//! just decided is [`Progress::Near`]: the child blocks were asked for when the ray entered their
+//! parent (`prefetch_children`).
 
 use super::lanes::{
     ABOVE, ACTIVE_BIT, CELLS, COMPACT, FIELD_SHIFT, ORDER, SLOT, SLOT_BIT, VALID_BIT, not_interior,
@@ -47,10 +47,10 @@ use super::lanes::{
 use super::{AXES_WORD, Block, REFS_WORD, kind};
 use crate::format::{LeafPrims, MAX_DEPTH, Scene};
 use crate::ray::Ray;
+use crate::traverse::steps::{Progress, Query, Stepper};
 #[cfg(doc)]
 use crate::traverse::widen;
 use crate::traverse::{Contents, TINY, WIDEN, entry_interval, entry_with_slack};
-use crate::walk::{Progress, Query, Stepper};
 use wide::{f32x8, u32x8};
 
 /// Bit 0 and bit 1 of slot `k`'s axis field (lane `k`; lane 7 holds no slot).

@@ -16,7 +16,7 @@
 
 use crate::ray::Ray;
 use crate::traverse::Contents;
-use crate::walk::{Progress, Query, Stepper};
+use crate::traverse::steps::{Progress, Query, Stepper};
 use glam::Vec3;
 
 /// A slot's ray before it holds a real one (never traced: a slot is used only after `refill`).

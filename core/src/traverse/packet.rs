@@ -14,13 +14,15 @@
 //! served by the scalar walk ([`Scene::intersect`]), which is what `kdray trace --packet 1` and
 //! the renderer's secondary bounces use.
 
-use super::kernels::{PrimHits, intersect_sphere, intersect_triangle_prepared, record_closest};
-use super::lanes::Lanes;
-use super::packet::{HitPacket, RayPacket};
-use super::watertight::{ShearX, intersect_triangle_watertight_prepared};
+use super::{Contents, ENTRY_SLACK, GAMMA3, Mode, TINY, WIDEN, by_contents};
 use crate::format::{LeafPrims, MAX_DEPTH, Scene};
 use crate::group;
-use crate::traverse::{Contents, ENTRY_SLACK, GAMMA3, Mode, TINY, WIDEN, by_contents};
+use crate::simd::kernels::{
+    PrimHits, intersect_sphere, intersect_triangle_prepared, record_closest,
+};
+use crate::simd::lanes::Lanes;
+use crate::simd::packet::{HitPacket, RayPacket};
+use crate::simd::watertight::{ShearX, intersect_triangle_watertight_prepared};
 use glam::Vec3;
 
 /// A pending far child with its lanes' intervals.
