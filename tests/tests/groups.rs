@@ -280,3 +280,43 @@ fn a_group_holds_its_lanes_as_the_triangles_section_does() {
     assert_eq!(group::groups_for(2), 1);
     assert_eq!(group::groups_for(5), 2);
 }
+
+/// Only kernels for triangles-only contents read groups (`Contents::GROUPS`): a target that names
+/// triangles and spheres links no group code, and `kernel_fits` refuses it a grouped scene, which
+/// its walk would see as empty leaves — misses, never a read out of bounds.
+#[test]
+fn only_triangles_only_kernels_read_groups() {
+    use kdray_core::render::kernel_fits;
+    use kdray_core::traverse::{Contents, Mixed, Spheres, Triangles, Watertight};
+    assert!(Triangles::GROUPS && Watertight::<Triangles>::GROUPS);
+    assert!(!Mixed::GROUPS && !Spheres::GROUPS && !Watertight::<Mixed>::GROUPS);
+    let geom = scattered_triangles(200);
+    let [list, grouped] = both_leaves(&geom, 80.0, 4, Layout::Nodes);
+    let (list, grouped) = (
+        Scene::from_words(&list).unwrap(),
+        Scene::from_words(&grouped).unwrap(),
+    );
+    assert!(kernel_fits::<Triangles>(&grouped) && kernel_fits::<Mixed>(&list));
+    assert!(!kernel_fits::<Mixed>(&grouped) && !kernel_fits::<Watertight<Mixed>>(&grouped));
+    // Mixed kernels on the grouped scene: the hits of one-triangle leaves, never one that the
+    // triangles' kernels would not find, no panic.
+    let mut rng = kdray_tests::Lcg::new(4);
+    let mut hits = [0; 2];
+    for _ in 0..2000 {
+        let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 14.0 - 2.0;
+        let d = (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5).normalize();
+        let ray = kdray_core::Ray::new(o, d);
+        hits[0] += usize::from(list.intersect_with::<Mixed>(&ray).is_hit());
+        let h = grouped.intersect_with::<Mixed>(&ray);
+        hits[1] += usize::from(h.is_hit() && h != grouped.intersect_with::<Triangles>(&ray));
+    }
+    assert!(
+        hits[0] > 100,
+        "the rays hit the list scene {} times",
+        hits[0]
+    );
+    assert_eq!(
+        hits[1], 0,
+        "a Mixed kernel on groups found a hit Triangles did not"
+    );
+}

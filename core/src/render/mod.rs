@@ -226,7 +226,9 @@ fn check_rows(settings: &Settings, first_row: u32, out: &[[f32; 3]]) -> Result<(
 /// Whether `scene` holds only primitive kinds that `K` handles: the precondition of
 /// [`render_rows_with`] for a target that names its contents.
 pub fn kernel_fits<K: Contents>(scene: &Scene) -> bool {
-    (K::TRIANGLES || scene.tri_count() == 0) && (K::SPHERES || scene.sphere_count() == 0)
+    (K::TRIANGLES || scene.tri_count() == 0)
+        && (K::SPHERES || scene.sphere_count() == 0)
+        && (K::GROUPS || !scene.has_groups())
 }
 
 /// [`render_rows`] with the traversal kernels for a fixed [`Contents`] and a fixed way of tracing

@@ -75,6 +75,10 @@ pub trait Contents {
     /// The conservative walk alone ([`widen`]); it follows [`Contents::WATERTIGHT`] unless a type
     /// sets it apart (the tests do, to count which of kernel and walk loses a ray).
     const CONSERVATIVE: bool = Self::WATERTIGHT;
+    /// Leaves may hold triangle groups ([`crate::group`]), which the format allows in
+    /// triangles-only scenes: kernels for any other contents link no group code (and would see a
+    /// grouped leaf as empty; [`crate::render::kernel_fits`] refuses such a scene).
+    const GROUPS: bool = Self::TRIANGLES && !Self::SPHERES;
 }
 
 /// Triangles only.

@@ -127,7 +127,7 @@ impl Scene<'_> {
             }
         };
         match self.leaf_prims(node) {
-            LeafPrims::Groups(groups) => {
+            LeafPrims::Groups(groups) if C::GROUPS => {
                 for g in groups {
                     for (j, prim) in group::ids(g).into_iter().enumerate() {
                         if prim == group::PAD_ID {

@@ -68,7 +68,9 @@ impl Closest {
 impl Query for Closest {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
-        if let LeafPrims::Groups(groups) = prims {
+        if C::GROUPS
+            && let LeafPrims::Groups(groups) = prims
+        {
             for g in groups {
                 let found = intersect_group::<C>(g, &self.query, &self.shear);
                 if let Some((t, u, v, prim)) = closest_in_group(g, &found) {
@@ -120,7 +122,9 @@ impl Query for Occlusion {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
         let (ray, shear) = (&self.ray, &self.shear);
-        if let LeafPrims::Groups(groups) = prims {
+        if C::GROUPS
+            && let LeafPrims::Groups(groups) = prims
+        {
             self.found = groups
                 .iter()
                 .any(|g| intersect_group::<C>(g, ray, shear).mask.any());
