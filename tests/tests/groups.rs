@@ -288,8 +288,8 @@ fn a_group_holds_its_lanes_as_the_triangles_section_does() {
 fn only_triangles_only_kernels_read_groups() {
     use kdray_core::render::kernel_fits;
     use kdray_core::traverse::{Contents, Mixed, Spheres, Triangles, Watertight};
-    assert!(Triangles::GROUPS && Watertight::<Triangles>::GROUPS);
-    assert!(!Mixed::GROUPS && !Spheres::GROUPS && !Watertight::<Mixed>::GROUPS);
+    const { assert!(Triangles::GROUPS && Watertight::<Triangles>::GROUPS) };
+    const { assert!(!Mixed::GROUPS && !Spheres::GROUPS && !Watertight::<Mixed>::GROUPS) };
     let geom = scattered_triangles(200);
     let [list, grouped] = both_leaves(&geom, 80.0, 4, Layout::Nodes);
     let (list, grouped) = (
