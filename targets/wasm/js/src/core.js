@@ -9,6 +9,23 @@ const SIMD_PROBE = new Uint8Array([
   0, 97, 115, 109, 1, 0, 0, 0, 1, 4, 1, 96, 0, 0, 3, 2, 1, 0, 10, 9, 1, 7, 0, 65, 0, 253, 15, 26, 11,
 ]);
 
+/**
+ * kdj_build's `layout` and `leaves` arguments from a build's options: `layout` 'nodes' (default)
+ * or 'blocked'; `leaves` 'groups' (default: triangles four to a SIMD group, tested at once) or
+ * 'list' (index lists: about half the memory, slower single rays). Anything else throws.
+ */
+export function buildFlags(options) {
+  const layout = options?.layout ?? 'nodes';
+  const leaves = options?.leaves ?? 'groups';
+  if (layout !== 'nodes' && layout !== 'blocked') {
+    throw new TypeError(`kdray: options.layout must be 'nodes' or 'blocked', not ${JSON.stringify(layout)}`);
+  }
+  if (leaves !== 'groups' && leaves !== 'list') {
+    throw new TypeError(`kdray: options.leaves must be 'groups' or 'list', not ${JSON.stringify(leaves)}`);
+  }
+  return [layout === 'blocked' ? 1 : 0, leaves === 'groups' ? 1 : 0];
+}
+
 /** Whether this engine runs WebAssembly SIMD (simd128). */
 export function simdSupported() {
   return typeof WebAssembly === 'object' && WebAssembly.validate(SIMD_PROBE);
@@ -156,13 +173,14 @@ export class Scene {
     if (!(positions instanceof Float32Array)) {
       throw new TypeError('kdray: positions must be a Float32Array (x, y, z a vertex)');
     }
+    const [layout, leaves] = buildFlags(options);
     const kd = exportsOrThrow();
     if (indices instanceof Uint16Array) indices = Uint32Array.from(indices);
     const pos = positions.length ? put(kd, positions) : 0;
     const idx = indices ? put(kd, indices.length ? indices : new Uint32Array(1)) : 0;
     let handle;
     try {
-      handle = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, options?.layout === 'blocked' ? 1 : 0);
+      handle = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
     } finally {
       if (pos) kd.kdj_free(pos);
       if (idx) kd.kdj_free(idx);

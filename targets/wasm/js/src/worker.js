@@ -5,18 +5,19 @@
 // or, where the page is cross-origin isolated, in a SharedArrayBuffer that several query
 // workers can load without a copy each (Scene.fromBytes(shared) in each).
 import { Scene, init, compiledModule } from './index.js';
+import { buildFlags } from './core.js';
 
 // The worker: the module's build protocol in a few lines (src/core.js is the full one).
 const SOURCE = `
 const port = typeof self !== 'undefined' ? self : require('node:worker_threads').parentPort;
 const on = (f) => (typeof self !== 'undefined' ? (self.onmessage = (e) => f(e.data)) : port.on('message', f));
-on(async ({ module, positions, indices, layout, shared }) => {
+on(async ({ module, positions, indices, layout, leaves, shared }) => {
   try {
     const kd = (await WebAssembly.instantiate(module, {})).exports;
     const put = (a) => { const b = new Uint8Array(a.buffer, a.byteOffset, a.byteLength); const p = kd.kdj_alloc(b.length || 1); if (!p) throw new Error('out of memory'); new Uint8Array(kd.memory.buffer, p, b.length).set(b); return p; };
     const pos = put(positions);
     const idx = indices ? put(indices) : 0;
-    const h = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout);
+    const h = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
     if (h < 0) {
       const n = kd.kdj_error_len(), p = kd.kdj_alloc(n || 1);
       kd.kdj_error(p, n);
@@ -62,13 +63,14 @@ async function spawn() {
 export async function buildInWorker(positions, indices, options) {
   if (!(positions instanceof Float32Array)) throw new TypeError('kdray: positions must be a Float32Array (x, y, z a vertex)');
   if (indices != null && !(indices instanceof Uint32Array)) throw new TypeError('kdray: indices must be a Uint32Array (or omitted)');
+  const [layout, leaves] = buildFlags(options);
   await init();
   const shared = typeof SharedArrayBuffer === 'function' && globalThis.crossOriginIsolated === true;
   const worker = await spawn();
   try {
     const reply = await new Promise((resolve) => {
       worker.once(resolve);
-      worker.post({ module: compiledModule(), positions, indices: indices ?? null, layout: options?.layout === 'blocked' ? 1 : 0, shared });
+      worker.post({ module: compiledModule(), positions, indices: indices ?? null, layout, leaves, shared });
     });
     if (reply.error) throw new Error(`kdray: cannot build the mesh: ${reply.error}`);
     const scene = await Scene.fromBytes(reply.bytes, options);

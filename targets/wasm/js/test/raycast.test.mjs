@@ -61,6 +61,41 @@ test('random soup, watertight mode', compare(soup(400, 3), undefined, 1500, 4, {
 test('random soup, cache-line blocks', compare(soup(2000, 5, 0.05), undefined, 1500, 6, { layout: 'blocked' }));
 test('bunny, indexed', compare(bunny().positions, bunny().indices, 3000, 7));
 test('bunny, watertight', compare(bunny().positions, bunny().indices, 1500, 8, { watertight: true }));
+test('bunny, index-list leaves', compare(bunny().positions, bunny().indices, 1500, 14, { leaves: 'list' }));
+test('random soup, index-list leaves, watertight', compare(soup(400, 15), undefined, 1500, 16, { leaves: 'list', watertight: true }));
+
+// Triangle groups (the default) and index lists are two trees over the same triangles, tested by
+// the same arithmetic lane by lane: every ray meets its first triangle at the same t in both,
+// and where they name different faces, both faces lie at that t (a tie: the other tree reached
+// the other one first).
+test('group and index-list leaves give the same hits', async () => {
+  const { positions, indices } = bunny();
+  const n = 4000;
+  const rs = rays(positions, n, 17);
+  for (const watertight of [false, true]) {
+    const groups = await Scene.build(positions, indices, { watertight });
+    const list = await Scene.build(positions, indices, { watertight, leaves: 'list' });
+    assert.ok(groups.toBytes().length > list.toBytes().length, 'groups store triangles inline');
+    const [hg, hl] = [groups.raycastMany(rs), list.raycastMany(rs)];
+    const [fg, fl] = [new Uint32Array(hg.buffer), new Uint32Array(hl.buffer)];
+    let ties = 0;
+    for (let i = 0; i < n; i++) {
+      const o = rs.subarray(8 * i, 8 * i + 3), d = rs.subarray(8 * i + 3, 8 * i + 6);
+      assert.equal(hg[4 * i], hl[4 * i], `ray ${i}: t (raycastMany, watertight=${watertight})`);
+      const [a, b] = [groups.raycast(o, d), list.raycast(o, d)];
+      assert.equal(a?.distance, b?.distance, `ray ${i}: t (raycast)`);
+      for (const [x, y] of [[fg[4 * i + 1], fl[4 * i + 1]], [a?.faceIndex, b?.faceIndex]]) {
+        if (x === y) continue;
+        ties++;
+        const at = list.intersectAll(o, d).filter((h) => h.distance === a.distance).map((h) => h.faceIndex);
+        assert.ok(at.includes(x) && at.includes(y), `ray ${i}: faces ${x} and ${y} are not both at t = ${a.distance}`);
+      }
+    }
+    assert.ok(ties < n / 100, `${ties} ties in ${n} rays`);
+    groups.dispose();
+    list.dispose();
+  }
+});
 
 test('raycastMany equals raycast, ray by ray', async () => {
   const { positions, indices } = bunny();

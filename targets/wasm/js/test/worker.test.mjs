@@ -16,6 +16,15 @@ test('buildInWorker gives the same tree as Scene.build', async () => {
   assert.deepEqual(scene.raycast([0, 5, 20], [0, 0, -1]), here.raycast([0, 5, 20], [0, 0, -1]));
 });
 
+test('buildInWorker passes the build options', async () => {
+  const { positions, indices } = bunny();
+  const options = { leaves: 'list', layout: 'blocked' };
+  const { scene } = await buildInWorker(positions, indices, options);
+  assert.deepEqual(scene.toBytes(), (await Scene.build(positions, indices, options)).toBytes());
+  assert.notDeepEqual(scene.toBytes(), (await Scene.build(positions, indices)).toBytes());
+  await assert.rejects(buildInWorker(positions, indices, { leaves: 'lists' }), /options.leaves must be/);
+});
+
 test('a refusal in the worker is an Error here', async () => {
   await assert.rejects(buildInWorker(new Float32Array([0, 0, NaN, 1, 0, 0, 0, 1, 0])), /positions\[2\] is NaN/);
 });

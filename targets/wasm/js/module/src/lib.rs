@@ -22,7 +22,7 @@ pub mod mesh;
 
 use core::cell::RefCell;
 use glam::Vec3;
-use kdray::flat::Layout;
+use kdray::flat::{Layout, Leaves};
 use kdray_core::format::contents;
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config};
@@ -220,7 +220,8 @@ pub extern "C" fn kdj_free(ptr: u32) {
 
 /// Builds a scene from `n_pos` floats of positions at `pos_ptr` and `n_idx` indices at `idx_ptr`
 /// (`idx_ptr = 0`: no indices, every 9 floats a triangle); `layout`: 0 nodes, 1 with cache-line
-/// blocks. Returns the scene's handle (> 0) or a failure.
+/// blocks; `leaves`: 0 index lists, 1 triangle groups (built with the SAH priced in groups).
+/// Returns the scene's handle (> 0) or a failure.
 #[unsafe(no_mangle)]
 pub extern "C" fn kdj_build(
     pos_ptr: u32,
@@ -228,6 +229,7 @@ pub extern "C" fn kdj_build(
     idx_ptr: u32,
     n_idx: u32,
     layout: u32,
+    leaves: u32,
 ) -> i32 {
     with_state(|s| {
         let positions = if n_pos == 0 {
@@ -245,8 +247,13 @@ pub extern "C" fn kdj_build(
             1 => Layout::Blocked,
             _ => return Err((BAD_ARGUMENT, "layout must be 0 or 1".into())),
         };
+        let leaves = match leaves {
+            0 => Leaves::List,
+            1 => Leaves::Groups,
+            _ => return Err((BAD_ARGUMENT, "leaves must be 0 or 1".into())),
+        };
         let tris = mesh::triangles(positions, indices).map_err(bad)?;
-        let words = mesh::build_words(tris, layout).map_err(bad)?;
+        let words = mesh::build_words(tris, layout, leaves).map_err(bad)?;
         s.add(words)
     })
 }

@@ -7,7 +7,7 @@
 use glam::Vec3;
 use kdray::Geometry;
 use kdray::build::{self, BuildParams};
-use kdray::flat::{self, Layout};
+use kdray::flat::{self, Layout, Leaves};
 
 /// The most triangles a mesh may have: the flat format's node fields hold 2³⁰ primitives, and a
 /// 32-bit module's memory (4 GiB) would run out long before.
@@ -112,18 +112,25 @@ fn js_number(x: f32) -> &'static str {
 ///
 /// # Errors
 /// What the builder or serializer refuses (a tree too large for the format).
-pub fn build_words(tris: Vec<[Vec3; 3]>, layout: Layout) -> Result<Vec<u32>, String> {
+pub fn build_words(
+    tris: Vec<[Vec3; 3]>,
+    layout: Layout,
+    leaves: Leaves,
+) -> Result<Vec<u32>, String> {
     let geom = Geometry {
         triangles: tris,
         ..Geometry::default()
     };
     let params = BuildParams {
         parallel: false,
-        ..BuildParams::default()
+        ..match leaves {
+            Leaves::List => BuildParams::default(),
+            Leaves::Groups => BuildParams::grouped(),
+        }
     };
     let tree = build::build(&geom, &params, None)?;
     // The build time field of the header: not measured here (wasm32 has no clock in std).
-    let words = flat::serialize_as(&tree, &geom, 0.0, layout, flat::Leaves::List)?;
+    let words = flat::serialize_as(&tree, &geom, 0.0, layout, leaves)?;
     if let Err(e) = kdray_core::Scene::from_words(&words) {
         return Err(format!(
             "the built tree does not validate ({e}): please report this mesh"
