@@ -77,7 +77,12 @@ impl Costs {
     /// The tests a leaf of `n` primitives costs: `⌈n / group⌉`.
     #[inline]
     pub fn tests(&self, n: usize) -> f64 {
-        n.div_ceil(self.group) as f64
+        // The sweep calls this four times a plane: no division where it is not needed.
+        if self.group == 1 {
+            n as f64
+        } else {
+            n.div_ceil(self.group) as f64
+        }
     }
 }
 
@@ -125,23 +130,27 @@ pub fn best_split_on_axis(
     let (mut nb, mut na) = (0usize, n);
     let mut i = 0;
     while i < events.len() {
+        // The events at `pos`: the list is sorted by (position, kind), so these are its ENDs,
+        // then PLANARs, then STARTs.
         let pos = events[i].pos;
         let mut counts = [0usize; 3];
-        for kind in [END, PLANAR, START] {
-            while i < events.len() && events[i].pos == pos && events[i].kind == kind {
-                counts[kind as usize] += 1;
-                i += 1;
-            }
+        while let Some(e) = events.get(i).filter(|e| e.pos == pos) {
+            counts[e.kind as usize] += 1;
+            i += 1;
         }
         let [ends, planars, starts] = counts;
         na -= ends + planars;
         if pos > lo && pos < hi {
             let below = sah(pos as f64, nb + planars, na);
-            let above = sah(pos as f64, nb, na + planars);
-            let (cost, planar_below) = if below <= above {
+            let (cost, planar_below) = if planars == 0 {
                 (below, true)
             } else {
-                (above, false)
+                let above = sah(pos as f64, nb, na + planars);
+                if below <= above {
+                    (below, true)
+                } else {
+                    (above, false)
+                }
             };
             if best.is_none_or(|b| cost < b.cost) {
                 best = Some(Split {
