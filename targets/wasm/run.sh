@@ -2,9 +2,10 @@
 # Renders the default scene with the WASM module under Node, scalar and simd128 builds, and
 # compares each with the host's render of the same scene (`kdray render --checksum`): the
 # checksum of the linear pixels and every byte of the 8-bit image; then traces the scene's
-# primary and diffuse benchmark rays (kd_trace, packets of 1, 4, 8) against `kdray trace`'s hits.
+# primary and diffuse benchmark rays (kd_trace, packets of 1, 4, 8) against `kdray trace`'s hits;
+# and checks that a tree of triangle groups, which the module leaves out, is refused by name.
 # Prints one line:
-#   wasm-node scalar=yes simd128=yes trace=yes checksum=… host=… size=… spp=… match=yes|no
+#   wasm-node scalar=yes simd128=yes trace=yes groups-refused=yes checksum=… host=… size=… spp=… match=yes|no
 # and exits 1 unless both match. Usage: run.sh [SCENE.toml] (default: host/scenes/default.toml);
 # KDRAY_WASM_SIZE (default 32x32) and KDRAY_WASM_SPP (default 4) set the image; KDRAY a host kdray
 # binary to use instead of a debug build.
@@ -65,6 +66,14 @@ for kind in primary diffuse; do
       "$out/$kind.bin" "$out/$kind-hits.bin" >&2 || { trace=no; status=1; }
   done
 done
+# A tree of triangle groups: the module, built without kdray-core's `groups` feature, refuses it
+# and says how to rebuild it.
+"$kdray" build "$root/host/scenes/meshes/bunny.ply.gz" --leaves groups -o "$out/groups.kdt" >/dev/null
+groups=yes
+for variant in scalar simd128; do
+  node "$here/refusal.mjs" "$out/kdray_wasm_$variant.wasm" "$out/groups.kdt" \
+    "triangle groups.*--leaves list" >&2 || { groups=no; status=1; }
+done
 match=$([[ $status == 0 ]] && echo yes || echo no)
-echo "wasm-node$results trace=$trace checksum=$sum host=$host_sum size=$size spp=$spp match=$match"
+echo "wasm-node$results trace=$trace groups-refused=$groups checksum=$sum host=$host_sum size=$size spp=$spp match=$match"
 exit $status

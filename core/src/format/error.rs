@@ -11,6 +11,9 @@ pub enum FormatError {
     UnsupportedVersion(u32),
     /// CONTENTS has bits this version does not define, or disagrees with the counts/offsets.
     BadContents,
+    /// The scene stores triangle groups, and this build of the core was compiled without them
+    /// (its `groups` feature): rebuild the tree with `kdray build --leaves list`.
+    GroupsLeftOut,
     /// TOTAL_WORDS differs from the array's length (truncated or with trailing data).
     LengthMismatch {
         header: u32,
@@ -106,6 +109,11 @@ impl core::fmt::Display for FormatError {
                 )
             }
             Self::BadContents => write!(f, "contents bits disagree with the sections"),
+            Self::GroupsLeftOut => write!(
+                f,
+                "the tree stores triangle groups, which this build leaves out (kdray-core's \
+                 `groups` feature): rebuild it with `kdray build --leaves list`"
+            ),
             Self::LengthMismatch { header, actual } => {
                 write!(
                     f,

@@ -83,7 +83,9 @@
 //!   ([`crate::group`], where the layout is documented), so that the single-ray walk tests one ray
 //!   against four triangles at once with no index list in between. A leaf of `n ≥ 2` triangles
 //!   then has as payload the first of its `⌈n/4⌉` groups instead of an index-list offset, and the
-//!   leaves' groups tile the section in node order, as index-list ranges do. Each lane is a
+//!   leaves' groups tile the section in node order, as index-list ranges do. A core built without
+//!   its `groups` feature (firmware and WASM builds that link no group code) refuses such a scene
+//!   on load ([`FormatError::GroupsLeftOut`]). Each lane is a
 //!   triangle of the triangles section, bit for bit (validation rebuilds every group from its ids),
 //!   so the walks return the hits of the index-list layout; the packet walks read the same ids
 //!   and test the triangles section.

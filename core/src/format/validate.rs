@@ -140,6 +140,9 @@ impl<'a> Scene<'a> {
         {
             return Err(FormatError::BadContents);
         }
+        if grouped && !cfg!(feature = "groups") {
+            return Err(FormatError::GroupsLeftOut);
+        }
         // (start, end) of each section, (0, 0) when absent.
         let mut ranges = [(0usize, 0usize); 10];
         for (range, spec) in ranges.iter_mut().zip(specs.iter()) {

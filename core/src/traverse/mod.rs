@@ -77,8 +77,9 @@ pub trait Contents {
     const CONSERVATIVE: bool = Self::WATERTIGHT;
     /// Leaves may hold triangle groups ([`crate::group`]), which the format allows in
     /// triangles-only scenes: kernels for any other contents link no group code (and would see a
-    /// grouped leaf as empty; [`crate::render::kernel_fits`] refuses such a scene).
-    const GROUPS: bool = Self::TRIANGLES && !Self::SPHERES;
+    /// grouped leaf as empty; [`crate::render::kernel_fits`] refuses such a scene), nor does a
+    /// build without the `groups` feature (which refuses grouped scenes on load).
+    const GROUPS: bool = cfg!(feature = "groups") && Self::TRIANGLES && !Self::SPHERES;
 }
 
 /// Triangles only.
