@@ -37,6 +37,17 @@ pub enum Leaves {
     Groups,
 }
 
+impl Leaves {
+    /// The builder's defaults for a tree stored with these leaves: pbrt-v3's costs for index
+    /// lists, [`BuildParams::grouped`] (the SAH priced in groups) for groups.
+    pub fn build_params(self) -> BuildParams {
+        match self {
+            Leaves::List => BuildParams::default(),
+            Leaves::Groups => BuildParams::grouped(),
+        }
+    }
+}
+
 /// [`serialize_as`] in the default [`Layout`] and [`Leaves`].
 ///
 /// # Errors

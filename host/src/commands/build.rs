@@ -58,10 +58,7 @@ impl Default for BuildArgs {
 
 impl BuildArgs {
     pub fn params(&self) -> BuildParams {
-        let base = match self.leaves {
-            flat::Leaves::List => BuildParams::default(),
-            flat::Leaves::Groups => BuildParams::grouped(),
-        };
+        let base = self.leaves.build_params();
         BuildParams {
             traversal_cost: self.trav_cost,
             intersect_cost: self.isect_cost.unwrap_or(base.intersect_cost),

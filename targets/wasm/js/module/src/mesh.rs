@@ -123,10 +123,7 @@ pub fn build_words(
     };
     let params = BuildParams {
         parallel: false,
-        ..match leaves {
-            Leaves::List => BuildParams::default(),
-            Leaves::Groups => BuildParams::grouped(),
-        }
+        ..leaves.build_params()
     };
     let tree = build::build(&geom, &params, None)?;
     // The build time field of the header: not measured here (wasm32 has no clock in std).
