@@ -2,10 +2,13 @@
 //! visits, triangle groups and single primitive tests. The count runs the core's own single-ray
 //! walk over the node section ([`kdray_core::traverse::steps::Stepper`]), one step at a time, with
 //! a query that counts each leaf's work and hands it on to [`Closest`], so the walk counted is the
-//! walk traced (the blocks section, if any, is not walked: its steps are the nodes').
+//! walk traced (the blocks section, if any, is not walked: its steps are the nodes'). A scene with
+//! wide nodes is counted on its wide walk
+//! ([`kdray_core::traverse::wide::walk::walk_counted`]): its steps are wide nodes.
 
 use kdray_core::format::LeafPrims;
 use kdray_core::traverse::steps::{Closest, Progress, Query, Stepper};
+use kdray_core::traverse::wide::walk::{WalkCounts, walk_counted};
 use kdray_core::traverse::{Contents, Mixed, Spheres, Triangles};
 use kdray_core::{Ray, Scene};
 
@@ -70,6 +73,18 @@ fn count_with<C: Contents>(scene: &Scene, rays: &[Ray]) -> Counts {
         rays: rays.len() as u64,
         ..Counts::default()
     };
+    if !scene.wide_nodes().is_empty() {
+        for ray in rays {
+            let mut walk = WalkCounts::default();
+            let mut q = Counting {
+                inner: Closest::new::<C>(ray),
+                counts: &mut counts,
+            };
+            walk_counted::<C, _>(scene, scene.wide_nodes(), ray, &mut q, &mut walk);
+            counts.interior += u64::from(walk.nodes);
+        }
+        return counts;
+    }
     let mut state = <Scene as Stepper>::empty_state();
     for ray in rays {
         if !scene.begin::<C>(ray, &mut state) {

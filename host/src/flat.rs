@@ -22,6 +22,9 @@ pub enum Layout {
     Nodes,
     /// The nodes and a blocks section: three levels of the tree per 64-byte block.
     Blocked,
+    /// The nodes and a wide section: eight children a node, each with a tight box
+    /// (`kdray_core::traverse::wide`), which the single-ray queries then walk.
+    Wide,
 }
 
 /// How a leaf of several triangles holds them: as a run of the index list, or inline in
@@ -88,6 +91,7 @@ pub fn serialize_as(
     let blocks = match layout {
         Layout::Nodes => Vec::new(),
         Layout::Blocked => crate::blocks::to_blocks(&nodes)?,
+        Layout::Wide => Vec::new(),
     };
     let reordered = input_ids.as_ref().map(|ids| reorder(geom, ids));
     let geom = reordered.as_ref().unwrap_or(geom);
@@ -231,7 +235,27 @@ pub fn serialize_as(
     }
     words[header::BUILD_MS] = build_ms.to_bits();
     format::seal(&mut words);
+    if layout == Layout::Wide {
+        append_wide(&mut words)?;
+    }
     Ok(words)
+}
+
+/// Appends the wide section to the sealed scene `words` (collapsed from the validated scene,
+/// [`crate::wide`]) and seals them again.
+fn append_wide(words: &mut Vec<u32>) -> core::result::Result<(), String> {
+    let scene = Scene::from_words(words).map_err(|e| format!("internal: {e}"))?;
+    let wide = crate::wide::to_wide(&scene)?;
+    // Wide nodes start on a 16-word boundary (a cache line in 64-byte aligned words).
+    words.resize(words.len().next_multiple_of(16), 0);
+    words[header::WIDE_OFFSET] = words.len() as u32;
+    words[header::WIDE_COUNT] = wide.len() as u32;
+    words.extend(wide.iter().flatten());
+    words[header::CONTENTS] |= contents::WIDE;
+    words[header::TOTAL_WORDS] =
+        u32::try_from(words.len()).map_err(|_| "scene larger than 2^32 words".to_string())?;
+    format::seal(words);
+    Ok(())
 }
 
 /// Renumbers the triangles (ids below `n_tris`; spheres keep theirs) in the order the leaves

@@ -77,6 +77,16 @@ pub enum FormatError {
     BadGroup {
         node: u32,
     },
+    /// A wide node's references, count, orders or unused slots are not the ones its cut of the
+    /// node tree gives, or it is entered out of turn ([`crate::traverse::wide`]).
+    BadWideNode {
+        node: u32,
+    },
+    /// A wide node's box lies outside its cell or its parent's box, or does not contain what
+    /// its child holds.
+    BadWideBox {
+        node: u32,
+    },
     /// An input id is not below the triangle count.
     BadInputId {
         triangle: u32,
@@ -164,6 +174,14 @@ impl core::fmt::Display for FormatError {
             Self::IndexOrder { node } => write!(
                 f,
                 "node {node}: index-list range is shared or out of order (leaves must use the list in turn)"
+            ),
+            Self::BadWideNode { node } => write!(
+                f,
+                "wide node {node}: its children or orders differ from the node tree's"
+            ),
+            Self::BadWideBox { node } => write!(
+                f,
+                "wide node {node}: a box lies outside its cell or misses what its child holds"
             ),
             Self::BadGroup { node } => write!(
                 f,

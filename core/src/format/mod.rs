@@ -4,7 +4,7 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         9 (8 had no groups section; 7 stored `+inf` as the threshold of a
+//!  1  VERSION         10 (9 had no wide section; 8 had no groups section; 7 stored `+inf` as the threshold of a
 //!                     triangle whose `|e1 × e2|²` overflows f32, so fast mode never hit it; 6 had
 //!                     no blocks section, 5 stored edges, not vertices, 4 had no checksum: files
 //!                     written before are refused, rebuild them)
@@ -30,7 +30,8 @@
 //! 27  BLOCKS_OFFSET   … of the blocks section (0 when absent; a multiple of 16 words)
 //! 28  GROUP_COUNT     triangle groups (0 when absent)
 //! 29  GROUPS_OFFSET   … of the groups section (0 when absent)
-//! 30..32              reserved, must be 0
+//! 30  WIDE_COUNT      wide nodes (0 when absent)
+//! 31  WIDE_OFFSET     … of the wide section (0 when absent; a multiple of 16 words)
 //! ```
 //! Sections start on multiples of 8 words (32 bytes), lie inside `HEADER_WORDS .. TOTAL_WORDS`
 //! and do not overlap. A section the scene does not need is absent (offset 0, bit clear), not
@@ -89,6 +90,14 @@
 //!   triangle of the triangles section, bit for bit (validation rebuilds every group from its ids),
 //!   so the walks return the hits of the index-list layout; the packet walks read the same ids
 //!   and test the triangles section.
+//! - **Wide nodes** (CONTENTS bit `WIDE`, version 10): the same tree collapsed into nodes of up
+//!   to eight children, each with a conservative tight box and a front-to-back order per
+//!   direction octant ([`crate::traverse::wide`], where the encoding is documented). Leaves stay
+//!   in the node section (a reference names the leaf node). Validation recomputes every node's
+//!   children and orders from the node section and checks every box against its cell and its
+//!   child's contents, so the wide walk returns the closest hit as the node walk does. When
+//!   present (and the core's `wide` feature is on), [`Scene::intersect`] and [`Scene::occluded`]
+//!   walk it; the packet walks and the stream's interleaved walk use the nodes.
 //!
 //! # Cost of validation
 //! [`Scene::from_words`] takes time linear in the number of words `W`, whatever they say, and
@@ -128,13 +137,14 @@ use crate::group::{self, Group};
 use crate::node::{LEAF, Node};
 use crate::sphere::Sphere;
 use crate::traverse::blocked::Block;
+use crate::traverse::wide::WideNode;
 use crate::triangle::Triangle;
 use glam::Vec3;
 
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 9;
+pub const VERSION: u32 = 10;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).
@@ -170,8 +180,10 @@ pub mod header {
     pub const BLOCKS_OFFSET: usize = 27;
     pub const GROUP_COUNT: usize = 28;
     pub const GROUPS_OFFSET: usize = 29;
-    /// First reserved word; `RESERVED .. HEADER_WORDS` must be zero.
-    pub const RESERVED: usize = 30;
+    pub const WIDE_COUNT: usize = 30;
+    pub const WIDE_OFFSET: usize = 31;
+    /// First reserved word; `RESERVED .. HEADER_WORDS` must be zero (none are left).
+    pub const RESERVED: usize = 32;
 }
 
 /// The CONTENTS bits.
@@ -188,9 +200,11 @@ pub mod contents {
     pub const BLOCKED: u32 = 1 << 6;
     /// Leaves hold their triangles in groups of four (the groups section, [`crate::group`]).
     pub const GROUPS: u32 = 1 << 7;
+    /// The tree is also stored as wide nodes (the wide section, [`crate::traverse::wide`]).
+    pub const WIDE: u32 = 1 << 8;
     /// Every bit this version defines.
     pub const ALL: u32 =
-        TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS | INPUT_IDS | BLOCKED | GROUPS;
+        TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS | INPUT_IDS | BLOCKED | GROUPS | WIDE;
 }
 
 /// Words per element of each section.
@@ -202,6 +216,7 @@ pub mod stride {
     pub const UVS: usize = 6;
     pub const BLOCK: usize = crate::traverse::blocked::BLOCK_WORDS;
     pub const GROUP: usize = crate::group::GROUP_WORDS;
+    pub const WIDE: usize = crate::traverse::wide::NODE_WORDS;
 }
 
 mod checksum;
@@ -228,6 +243,7 @@ pub struct Scene<'a> {
     input_ids: &'a [u32],
     blocks: &'a [Block],
     groups: &'a [Group],
+    wide: &'a [WideNode],
 }
 
 impl<'a> Scene<'a> {
@@ -241,6 +257,19 @@ impl<'a> Scene<'a> {
     #[inline(always)]
     pub fn blocks(&self) -> &'a [Block] {
         self.blocks
+    }
+
+    /// The wide section ([`crate::traverse::wide`]); empty when the file has none.
+    #[inline(always)]
+    pub fn wide_nodes(&self) -> &'a [WideNode] {
+        self.wide
+    }
+
+    /// This scene with its wide section set aside: the single-ray queries walk the nodes (or
+    /// the blocks), to compare the walks on one file.
+    #[inline]
+    pub fn without_wide(&self) -> Self {
+        Self { wide: &[], ..*self }
     }
 
     /// This scene with its blocks section set aside: the single-ray queries walk the nodes (to

@@ -129,7 +129,16 @@ impl<'a> Scene<'a> {
                 stride: stride::GROUP,
                 bit: contents::GROUPS,
             },
+            SectionSpec {
+                offset_word: header::WIDE_OFFSET,
+                count: h(header::WIDE_COUNT) as usize,
+                stride: stride::WIDE,
+                bit: contents::WIDE,
+            },
         ];
+        if contents & contents::WIDE == 0 && h(header::WIDE_COUNT) != 0 {
+            return Err(FormatError::BadContents);
+        }
         if contents & contents::BLOCKED == 0 && h(header::BLOCK_COUNT) != 0 {
             return Err(FormatError::BadContents);
         }
@@ -144,7 +153,7 @@ impl<'a> Scene<'a> {
             return Err(FormatError::GroupsLeftOut);
         }
         // (start, end) of each section, (0, 0) when absent.
-        let mut ranges = [(0usize, 0usize); 10];
+        let mut ranges = [(0usize, 0usize); 11];
         for (range, spec) in ranges.iter_mut().zip(specs.iter()) {
             let offset = h(spec.offset_word) as usize;
             let present = if spec.bit == 0 {
@@ -163,8 +172,8 @@ impl<'a> Scene<'a> {
                 .checked_mul(spec.stride)
                 .ok_or(FormatError::CountOverflow)?;
             let end = offset.checked_add(len).ok_or(FormatError::CountOverflow)?;
-            // Blocks start on a cache line (16 words), the others on 8 words.
-            let align = if spec.bit == contents::BLOCKED {
+            // Blocks and wide nodes start on a cache line (16 words), the others on 8 words.
+            let align = if spec.bit == contents::BLOCKED || spec.bit == contents::WIDE {
                 stride::BLOCK
             } else {
                 SECTION_ALIGN
@@ -174,7 +183,7 @@ impl<'a> Scene<'a> {
             }
             *range = (offset, end);
         }
-        // Pairwise overlap test on at most 10 sections: no sort, no allocation.
+        // Pairwise overlap test on at most 11 sections: no sort, no allocation.
         for (i, a) in ranges.iter().enumerate() {
             for b in &ranges[i + 1..] {
                 if a.1 > a.0 && b.1 > b.0 && a.0 < b.1 && b.0 < a.1 {
@@ -208,6 +217,7 @@ impl<'a> Scene<'a> {
             input_ids: words_of(7),
             blocks: words_of(8).as_chunks().0,
             groups: words_of(9).as_chunks().0,
+            wide: words_of(10).as_chunks().0,
         };
         let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
         let triangles_ok = scene.tris.iter().all(|t| {
@@ -239,6 +249,9 @@ impl<'a> Scene<'a> {
         }
         if contents & contents::BLOCKED != 0 {
             crate::traverse::blocked::validate::validate(&scene, scene.blocks)?;
+        }
+        if contents & contents::WIDE != 0 {
+            crate::traverse::wide::validate::validate(&scene, scene.wide)?;
         }
         Ok(scene)
     }

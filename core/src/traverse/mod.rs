@@ -12,6 +12,9 @@
 //! - [`blocked`]: the cache-line-blocked copy of the tree (format v7's blocks section): its
 //!   encoding, its validation and its walk, a [`steps::Stepper`] that [`single`] and the stream
 //!   pick on their own when the scene has blocks and the `blocked` feature is on.
+//! - [`wide`]: the wide nodes (format v10's wide section): eight children a node, each with a
+//!   tight box, tested in one 8-wide slab test; [`single`] walks them on its own when the scene
+//!   has them and the `wide` feature is on.
 //! - [`stream`]: many rays in one call, answers in input order: coherent runs as packets, the rest
 //!   sorted, and what is still incoherent as interleaved single-ray walks whose memory loads
 //!   overlap; for a renderer's rounds of rays.
@@ -52,6 +55,7 @@ pub mod packet;
 pub mod single;
 pub mod steps;
 pub mod stream;
+pub mod wide;
 
 #[cfg(doc)]
 use crate::format::Scene;

@@ -61,6 +61,10 @@ impl Scene<'_> {
     /// ([`super::blocked::walk`]: the same decisions and hits).
     #[inline(always)]
     pub(crate) fn walk<C: Contents, Q: Query>(&self, ray: &Ray, query: &mut Q) {
+        #[cfg(feature = "wide")]
+        if !self.wide_nodes().is_empty() {
+            return super::wide::walk::walk::<C, Q>(self, self.wide_nodes(), ray, query);
+        }
         #[cfg(feature = "blocked")]
         if let Some(blocks) = super::blocked::walk::Blocks::new(self) {
             return walk_to_end::<_, C, Q>(&blocks, ray, query);

@@ -1,0 +1,248 @@
+//! The single-ray walk over wide nodes: one ray against a node's eight boxes in one 8-wide slab
+//! test (`f32x8`: one AVX register, two SSE or WASM simd128 halves, an array on Cortex-M), a hit
+//! mask, the hit children in the octant's stored front-to-back order, the nearest taken at once
+//! and the others pushed with their entry distance, skipped when popped beyond the closest hit.
+//!
+//! # The slab test, and why it loses no hit
+//! Per axis, the near and far planes are picked once per ray by the direction's sign (low plane
+//! near for a positive component), so that an unused slot (low `+∞`, high `−∞`) has entry `+∞`
+//! and exit `−∞` and is never entered. A slot is entered when `max(near distances, tmin) ≤
+//! min(far distances, limit)`, `limit` the closest hit so far raised by [`ENTRY_SLACK`] (as the
+//! kd walk compares entry distances, see there). The distances are made conservative:
+//! - fast mode: the exit distance is raised by `2γ₃` of its magnitude (pbrt-v3's robust
+//!   `Bounds3::IntersectP`), so rounding does not drop a box the ray grazes;
+//! - watertight mode ([`Contents::CONSERVATIVE`]): each distance is [`widen`]ed outward (Ize 2013,
+//!   "Robust BVH Ray Traversal"), so every box the ray touches, if only at a corner, is entered.
+//!
+//! A direction component that is `±0` or so small that its reciprocal overflows makes `1/d`
+//! infinite, and a plane through the origin then gives `0 · ∞ = NaN`: such a ray takes a
+//! branch (predicted: it is the same for the whole walk) that reads a NaN entry as `−∞` and a NaN
+//! exit as `+∞`, i.e. a ray lying in a box's face is inside it.
+
+use super::{BOXES, LEAF_REF, ORDERS, REFS, STACK, WIDTH, WideNode};
+use crate::format::Scene;
+use crate::ray::Ray;
+use crate::simd::{Lanes, f32x8};
+use crate::traverse::steps::Query;
+use crate::traverse::{Contents, ENTRY_SLACK, GAMMA3, TINY, WIDEN};
+use glam::Vec3;
+
+/// What a ray's slab tests need, set up once per ray.
+#[derive(Clone, Copy, Debug)]
+pub struct RaySetup {
+    origin: [f32x8; 3],
+    inv: [f32x8; 3],
+    /// Word offsets of each axis's near and far planes in a node.
+    near: [usize; 3],
+    far: [usize; 3],
+    tmin: f32x8,
+    /// The direction's octant (see the [module doc](super)).
+    pub octant: usize,
+    /// Whether `1/d` is infinite on some axis (the NaN-safe slab test).
+    parallel: bool,
+}
+
+impl RaySetup {
+    /// The setup for `ray` (finite: the caller checked).
+    #[inline(always)]
+    pub fn new(ray: &Ray) -> Self {
+        let inv = ray.dir.recip();
+        let neg = ray.dir.to_array().map(|d| d.is_sign_negative() as usize);
+        Self {
+            origin: ray.origin.to_array().map(f32x8::splat),
+            inv: inv.to_array().map(f32x8::splat),
+            near: core::array::from_fn(|a| BOXES + 8 * (2 * a + neg[a])),
+            far: core::array::from_fn(|a| BOXES + 8 * (2 * a + 1 - neg[a])),
+            tmin: f32x8::splat(ray.tmin),
+            octant: neg[0] | neg[1] << 1 | neg[2] << 2,
+            parallel: !inv.is_finite(),
+        }
+    }
+}
+
+/// The eight lanes of `node` starting at word `at`.
+#[inline(always)]
+fn lanes(node: &WideNode, at: usize) -> f32x8 {
+    let w: [u32; 8] = node[at..at + 8].try_into().unwrap_or([0; 8]);
+    f32x8::from(w.map(f32::from_bits))
+}
+
+/// The slab test of `ray` against `node`'s eight boxes, `limit` the farthest entry still of use:
+/// the mask of slots entered (bit `slot`) and each slot's entry distance.
+#[inline(always)]
+pub fn slab<C: Contents>(node: &WideNode, ray: &RaySetup, limit: f32) -> (u32, [f32; WIDTH]) {
+    let dist = |at: usize, a: usize| (lanes(node, at) - ray.origin[a]) * ray.inv[a];
+    let mut near: [f32x8; 3] = core::array::from_fn(|a| dist(ray.near[a], a));
+    let mut far: [f32x8; 3] = core::array::from_fn(|a| dist(ray.far[a], a));
+    if ray.parallel {
+        for a in 0..3 {
+            near[a] = near[a]
+                .is_nan()
+                .select(f32x8::splat(f32::NEG_INFINITY), near[a]);
+            far[a] = far[a].is_nan().select(f32x8::splat(f32::INFINITY), far[a]);
+        }
+    }
+    if C::CONSERVATIVE {
+        for a in 0..3 {
+            near[a] = widen_down(near[a]);
+            far[a] = widen_up(far[a]);
+        }
+    }
+    let entry = near[0]
+        .fast_max(near[1])
+        .fast_max(near[2])
+        .fast_max(ray.tmin);
+    let mut exit = far[0].fast_min(far[1]).fast_min(far[2]);
+    if !C::CONSERVATIVE {
+        // Raised by 2γ₃ of its magnitude, whatever its sign; `−∞` stays `−∞` (no `∞ − ∞`).
+        let c = 2.0 * GAMMA3;
+        exit = (exit * f32x8::splat(1.0 + c)).fast_max(exit * f32x8::splat(1.0 - c));
+    }
+    let exit = exit.fast_min(f32x8::splat(limit));
+    (entry.le(exit).bitmask(), entry.to_array())
+}
+
+/// [`crate::traverse::widen`]'s lower bound, lane by lane.
+#[inline(always)]
+fn widen_down(t: f32x8) -> f32x8 {
+    let (a, b) = (t * f32x8::splat(1.0 - WIDEN), t * f32x8::splat(1.0 + WIDEN));
+    a.fast_min(b) - f32x8::splat(TINY)
+}
+
+/// [`crate::traverse::widen`]'s upper bound, lane by lane.
+#[inline(always)]
+fn widen_up(t: f32x8) -> f32x8 {
+    let (a, b) = (t * f32x8::splat(1.0 - WIDEN), t * f32x8::splat(1.0 + WIDEN));
+    a.fast_max(b) + f32x8::splat(TINY)
+}
+
+/// The farthest entry distance still of use when the closest candidate is at `best`.
+#[inline(always)]
+fn limit_for(best: f32) -> f32 {
+    best + best.abs() * ENTRY_SLACK
+}
+
+/// Counts of one walk, for reports ([`walk_counted`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WalkCounts {
+    /// Wide nodes whose boxes were tested.
+    pub nodes: u32,
+    /// Leaves whose primitives were tested.
+    pub leaves: u32,
+}
+
+/// Walks `ray` over `wide` to the end for `query`.
+#[inline(always)]
+pub(crate) fn walk<C: Contents, Q: Query>(scene: &Scene, wide: &[WideNode], ray: &Ray, q: &mut Q) {
+    walk_counted::<C, Q>(scene, wide, ray, q, &mut WalkCounts::default());
+}
+
+/// [`walk`], counting wide nodes and leaves into `counts`.
+#[inline(always)]
+pub fn walk_counted<C: Contents, Q: Query>(
+    scene: &Scene,
+    wide: &[WideNode],
+    ray: &Ray,
+    q: &mut Q,
+    counts: &mut WalkCounts,
+) {
+    if !ray.is_finite() || wide.is_empty() {
+        return;
+    }
+    let setup = RaySetup::new(ray);
+    let mut limit = limit_for(ray.tmax);
+    let mut stack: heapless::Vec<(u32, f32), STACK> = heapless::Vec::new();
+    let mut current = 0u32;
+    loop {
+        if current & LEAF_REF != 0 {
+            counts.leaves += 1;
+            let leaf = scene.node(current & !LEAF_REF);
+            let (best, stop) = q.leaf::<C>(scene, scene.leaf_prims(&leaf));
+            if stop {
+                return;
+            }
+            limit = limit_for(best);
+        } else {
+            counts.nodes += 1;
+            // Validation made every reference a node index in range.
+            let node = &wide[current as usize];
+            let (mask, entry) = slab::<C>(node, &setup, limit);
+            if mask != 0 {
+                let order = node[ORDERS + setup.octant];
+                if mask.is_power_of_two() {
+                    current = node[REFS + mask.trailing_zeros() as usize];
+                    continue;
+                }
+                // The entered slots front to back; the nearest next, the others pushed farthest
+                // first so that they pop in order. At most 7 per level: the push cannot fail.
+                let mut hit = [0usize; WIDTH];
+                let mut n = 0;
+                for k in 0..WIDTH {
+                    let slot = (order >> (3 * k) & 7) as usize;
+                    hit[n] = slot;
+                    n += (mask >> slot & 1) as usize;
+                }
+                for &slot in hit[1..n].iter().rev() {
+                    let _ = stack.push((node[REFS + slot], entry[slot]));
+                }
+                current = node[REFS + hit[0]];
+                continue;
+            }
+        }
+        // The next pending child entered before the closest hit (the stack is ordered only
+        // within one node's children).
+        loop {
+            match stack.pop() {
+                None => return,
+                Some((next, t)) if t <= limit => {
+                    current = next;
+                    break;
+                }
+                Some(_) => {}
+            }
+        }
+    }
+}
+
+/// The slab test in scalar f32 for one box, the reference [`slab`]'s lanes are tested against:
+/// whether `ray` enters `b` no farther than `limit`, and its entry distance (the same value as
+/// the lane's, though a `±0` may differ in sign).
+pub fn slab_scalar<C: Contents>(b: [Vec3; 2], ray: &Ray, limit: f32) -> (bool, f32) {
+    let inv = ray.dir.recip();
+    let parallel = !inv.is_finite();
+    let (mut entry, mut exit) = (ray.tmin, f32::INFINITY);
+    for a in 0..3 {
+        let neg = ray.dir[a].is_sign_negative() as usize;
+        let mut near = (b[neg][a] - ray.origin[a]) * inv[a];
+        let mut far = (b[1 - neg][a] - ray.origin[a]) * inv[a];
+        if parallel {
+            near = if near.is_nan() {
+                f32::NEG_INFINITY
+            } else {
+                near
+            };
+            far = if far.is_nan() { f32::INFINITY } else { far };
+        }
+        if C::CONSERVATIVE {
+            (near, far) = (
+                crate::traverse::widen(near).0,
+                crate::traverse::widen(far).1,
+            );
+        }
+        entry = if near > entry { near } else { entry };
+        exit = if far < exit { far } else { exit };
+    }
+    if !C::CONSERVATIVE {
+        let c = 2.0 * GAMMA3;
+        let (a, b) = (exit * (1.0 + c), exit * (1.0 - c));
+        exit = if a > b { a } else { b };
+    }
+    let exit = if exit < limit { exit } else { limit };
+    (entry <= exit, entry)
+}
+
+/// The slots an order word (see the [module doc](super)) lists, front to back.
+pub fn order_slots(order: u32) -> impl Iterator<Item = usize> {
+    let count = (order >> 24 & 15) as usize;
+    (0..count.min(WIDTH)).map(move |k| (order >> (3 * k) & 7) as usize)
+}

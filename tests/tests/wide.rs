@@ -1,0 +1,349 @@
+//! The wide layout (format v10's wide section): the walk over wide nodes returns the closest hit
+//! of brute force and of the node walk (the same `t` bits; where two primitives tie at that `t`,
+//! either), closest and any hit, fast and watertight, on the random grid scenes of the
+//! brute-force tests, with lists and with groups; its slab test matches the scalar reference
+//! lane by lane; closed meshes let no watertight ray escape; and validation refuses damaged
+//! wide sections.
+
+use glam::Vec3;
+use kdray::Geometry;
+use kdray::build::{BuildParams, build};
+use kdray::flat::{Layout, Leaves, serialize_as};
+use kdray_core::format::{FormatError, contents, header, seal};
+use kdray_core::traverse::wide::walk::{RaySetup, slab, slab_scalar};
+use kdray_core::traverse::wide::{
+    self, BOXES, EMPTY_BOX, LEAF_REF, NODE_WORDS, ORDERS, REFS, WIDTH, WideNode, set_slot_box,
+};
+use kdray_core::traverse::{Contents, Mixed, Mode, Triangles, Watertight};
+use kdray_core::{Hit, Ray, Scene};
+use kdray_tests::strategies::{grid_geometry, scattered_triangles, traversal_ray, vec3};
+use proptest::prelude::*;
+use proptest::test_runner::TestCaseError;
+
+/// `geom`'s tree with the node layout and with wide nodes, with `leaves`.
+fn layouts(geom: &Geometry, intersect_cost: f64, leaves: Leaves) -> (Vec<u32>, Vec<u32>) {
+    let params = BuildParams {
+        intersect_cost,
+        parallel: false,
+        ..leaves.build_params()
+    };
+    let tree = build(geom, &params, None).expect("finite geometry builds");
+    let words = |layout| serialize_as(&tree, geom, 0.0, layout, leaves).expect("fits the format");
+    (words(Layout::Nodes), words(Layout::Wide))
+}
+
+/// The closest hit by testing every primitive with `C`'s kernels.
+fn brute_force<C: Contents>(scene: &Scene, ray: &Ray) -> Hit {
+    let mut best = Hit::MISS;
+    for prim in 0..scene.prim_count() {
+        if let Some((t, u, v)) = scene.intersect_prim::<C>(prim, ray)
+            && t < best.t
+        {
+            best = Hit { t, prim, u, v };
+        }
+    }
+    best
+}
+
+/// `got` is `want`'s closest hit: the same `t`, and a primitive that `ray` hits at that `t`.
+fn same_closest<C: Contents>(
+    scene: &Scene,
+    ray: &Ray,
+    got: Hit,
+    want: Hit,
+) -> Result<(), TestCaseError> {
+    prop_assert!(
+        got.t == want.t,
+        "ray {:?}: got {:?}, want {:?}",
+        ray,
+        got,
+        want
+    );
+    if got.prim != want.prim {
+        let own = scene.intersect_prim::<C>(got.prim, ray).map(|h| h.0);
+        prop_assert_eq!(
+            own,
+            Some(want.t),
+            "ray {:?}: prim {} is not a tie",
+            ray,
+            got.prim
+        );
+    }
+    Ok(())
+}
+
+/// The wide walk against brute force and the node walk, in `mode` with contents `C`.
+fn check<C: Contents>(
+    wide: &Scene,
+    nodes: &Scene,
+    ray: &Ray,
+    mode: Mode,
+) -> Result<(), TestCaseError> {
+    let got = wide.intersect_in(mode, ray);
+    same_closest::<C>(wide, ray, got, brute_force::<C>(wide, ray))?;
+    same_closest::<C>(wide, ray, got, nodes.intersect_in(mode, ray))?;
+    prop_assert_eq!(
+        wide.occluded_in(mode, ray),
+        got.is_hit(),
+        "any hit, {:?} {:?}",
+        mode,
+        ray
+    );
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(128)))]
+
+    #[test]
+    fn wide_walk_returns_the_closest_hit(
+        geom in grid_geometry(3),
+        isect in prop_oneof![Just(80.0), Just(2.0), Just(20.0)],
+        rays in prop::collection::vec(traversal_ray(), 40),
+    ) {
+        let (nodes, wide) = layouts(&geom, isect, Leaves::List);
+        let (nodes, wide) = (Scene::from_words(&nodes).unwrap(), Scene::from_words(&wide).unwrap());
+        prop_assert!(nodes.wide_nodes().is_empty() && !wide.wide_nodes().is_empty());
+        for ray in &rays {
+            check::<Mixed>(&wide, &nodes, ray, Mode::Fast)?;
+            check::<Watertight<Mixed>>(&wide, &nodes, ray, Mode::Watertight)?;
+        }
+    }
+
+    #[test]
+    fn wide_walk_over_groups_returns_the_closest_hit(
+        geom in grid_geometry(1),
+        isect in prop_oneof![Just(80.0), Just(2.0)],
+        rays in prop::collection::vec(traversal_ray(), 40),
+    ) {
+        prop_assume!(!geom.triangles.is_empty());
+        let (nodes, wide) = layouts(&geom, isect, Leaves::Groups);
+        let (nodes, wide) = (Scene::from_words(&nodes).unwrap(), Scene::from_words(&wide).unwrap());
+        for ray in &rays {
+            check::<Triangles>(&wide, &nodes, ray, Mode::Fast)?;
+            check::<Watertight<Triangles>>(&wide, &nodes, ray, Mode::Watertight)?;
+        }
+    }
+
+    /// Each lane of the 8-wide slab test is the scalar slab test of its box, in both modes.
+    #[test]
+    fn slab_lanes_match_the_scalar_reference(
+        boxes in prop::collection::vec((vec3(-4.0, 4.0), vec3(0.0, 3.0), 0..6u8), WIDTH),
+        ray in traversal_ray(),
+        limit in prop_oneof![Just(f32::INFINITY), 0.0f32..10.0],
+    ) {
+        prop_assume!(ray.is_finite());
+        let mut node: WideNode = [0; NODE_WORDS];
+        let mut list = [EMPTY_BOX; WIDTH];
+        for (slot, &(lo, size, kind)) in boxes.iter().enumerate() {
+            // Some boxes flat, some unused, some degenerate to a point.
+            let b = match kind {
+                0 => EMPTY_BOX,
+                1 => [lo, lo],
+                2 => [lo, lo + Vec3::new(size.x, 0.0, size.z)],
+                _ => [lo, lo + size],
+            };
+            list[slot] = b;
+            set_slot_box(&mut node, slot, b);
+        }
+        let setup = RaySetup::new(&ray);
+        for (mask, entry, conservative) in [
+            (slab::<Mixed>(&node, &setup, limit).0, slab::<Mixed>(&node, &setup, limit).1, false),
+            (slab::<Watertight<Mixed>>(&node, &setup, limit).0, slab::<Watertight<Mixed>>(&node, &setup, limit).1, true),
+        ] {
+            for (slot, b) in list.iter().enumerate() {
+                let (hit, t) = if conservative {
+                    slab_scalar::<Watertight<Mixed>>(*b, &ray, limit)
+                } else {
+                    slab_scalar::<Mixed>(*b, &ray, limit)
+                };
+                prop_assert_eq!(mask >> slot & 1 == 1, hit, "slot {} box {:?} ray {:?}", slot, b, ray);
+                prop_assert!(t == entry[slot] || (t.is_nan() && entry[slot].is_nan()), "slot {} entry {} vs {}", slot, t, entry[slot]);
+            }
+        }
+    }
+}
+
+/// A ray along a box's face, and rays with zero and subnormal direction components from a
+/// box's corner, enter it (the NaN-safe branch of the slab test).
+#[test]
+fn rays_in_a_face_or_with_subnormal_components_enter_the_box() {
+    let b = [Vec3::ZERO, Vec3::ONE];
+    let mut node: WideNode = [0; NODE_WORDS];
+    for slot in 0..WIDTH {
+        set_slot_box(&mut node, slot, if slot == 3 { b } else { EMPTY_BOX });
+    }
+    let tiny = f32::from_bits(1);
+    for (o, d) in [
+        (Vec3::new(0.0, 0.5, -1.0), Vec3::Z),
+        (Vec3::new(1.0, 1.0, 2.0), -Vec3::Z),
+        (
+            Vec3::new(0.3, 1.0, 0.2),
+            Vec3::new(0.0, -tiny, -1.0).normalize(),
+        ),
+        (Vec3::new(0.3, 1.0, 0.2), Vec3::new(-0.0, -1e-39, -1.0)),
+    ] {
+        let ray = Ray::new(o, d);
+        for mask in [
+            slab::<Mixed>(&node, &RaySetup::new(&ray), f32::INFINITY).0,
+            slab::<Watertight<Mixed>>(&node, &RaySetup::new(&ray), f32::INFINITY).0,
+        ] {
+            assert_eq!(mask, 1 << 3, "ray {o:?} {d:?}");
+        }
+    }
+}
+
+/// The wide tree of a closed mesh lets no watertight ray escape (the seam rays of
+/// `stiff_closed`), and its watertight walk answers what the node walk's does.
+#[test]
+fn closed_meshes_let_no_watertight_ray_escape_the_wide_walk() {
+    use kdray::closed::{Aim, icosphere, skinny_box};
+    for (name, mesh) in [("icosphere", icosphere(4)), ("skinny box", skinny_box(64))] {
+        let geom = Geometry {
+            triangles: mesh.triangles(),
+            ..Geometry::default()
+        };
+        let (nodes, wide) = layouts(&geom, 80.0, Leaves::List);
+        let (nodes, wide) = (
+            Scene::from_words(&nodes).unwrap(),
+            Scene::from_words(&wide).unwrap(),
+        );
+        let rays = mesh.seam_rays(mesh.centre, Aim::Exact);
+        let escapes = rays
+            .iter()
+            .filter(|r| !wide.intersect_in(Mode::Watertight, r).is_hit())
+            .count();
+        assert_eq!(
+            escapes,
+            0,
+            "{name}: {escapes} of {} rays escaped",
+            rays.len()
+        );
+        for r in rays.iter().step_by(7) {
+            let (a, b) = (
+                wide.intersect_in(Mode::Watertight, r),
+                nodes.intersect_in(Mode::Watertight, r),
+            );
+            assert!(a.t == b.t, "{name}: {a:?} vs {b:?}");
+        }
+    }
+}
+
+/// The wide section of `words`: its offset and node count.
+fn section(words: &[u32]) -> (usize, usize) {
+    (
+        words[header::WIDE_OFFSET] as usize,
+        words[header::WIDE_COUNT] as usize,
+    )
+}
+
+/// `words` with `f` applied to its wide section, resealed; what validation says.
+fn damaged(words: &[u32], f: impl Fn(&mut [u32])) -> Result<(), FormatError> {
+    let mut w = words.to_vec();
+    let (at, n) = section(&w);
+    f(&mut w[at..at + n * NODE_WORDS]);
+    seal(&mut w);
+    Scene::from_words(&w).map(|_| ())
+}
+
+#[test]
+fn damaged_wide_sections_are_refused() {
+    let geom = scattered_triangles(300);
+    let (_, words) = layouts(&geom, 80.0, Leaves::List);
+    let scene = Scene::from_words(&words).unwrap();
+    assert_ne!(scene.contents() & contents::WIDE, 0);
+    let n = scene.wide_nodes().len();
+    assert!(n > 3, "{n} wide nodes");
+    let at = |node: usize, word: usize| node * NODE_WORDS + word;
+    // Find a wide node with a leaf child and one with a wide child.
+    let nodes = scene.wide_nodes();
+    let leaf_slot =
+        |w: &WideNode| (0..WIDTH).find(|&k| w[REFS + k] & LEAF_REF != 0 && w[REFS + k] != 0);
+    let (lw, lk) = (0..n)
+        .find_map(|i| leaf_slot(&nodes[i]).map(|k| (i, k)))
+        .unwrap();
+    let (ww, wk) = (0..WIDTH)
+        .find(|&k| nodes[0][REFS + k] != 0 && nodes[0][REFS + k] & LEAF_REF == 0)
+        .map(|k| (0, k))
+        .unwrap();
+
+    // A reference to another leaf, another wide node, back, or out of range.
+    assert!(matches!(
+        damaged(&words, |s| s[at(lw, REFS + lk)] ^= 1),
+        Err(FormatError::BadWideNode { .. })
+    ));
+    assert!(matches!(
+        damaged(&words, |s| s[at(ww, REFS + wk)] += 1),
+        Err(FormatError::BadWideNode { .. })
+    ));
+    assert!(matches!(
+        damaged(&words, |s| s[at(ww, REFS + wk)] = 0),
+        Err(FormatError::BadWideNode { .. })
+    ));
+    assert!(matches!(
+        damaged(&words, |s| s[at(ww, REFS + wk)] = 1 << 30),
+        Err(FormatError::BadWideNode { .. })
+    ));
+    // An order word swapped, a count changed, an unused slot's box or reference filled.
+    assert!(matches!(
+        damaged(&words, |s| s[at(0, ORDERS + 3)] ^= 0b111_111),
+        Err(FormatError::BadWideNode { .. })
+    ));
+    assert!(matches!(
+        damaged(&words, |s| s[at(0, ORDERS)] ^= 1 << 24),
+        Err(FormatError::BadWideNode { .. })
+    ));
+    let (fw, fk) = (0..n)
+        .find_map(|i| {
+            (0..WIDTH)
+                .find(|&k| nodes[i][ORDERS] >> 24 <= k as u32)
+                .map(|k| (i, k))
+        })
+        .expect("some node with an unused slot");
+    assert!(matches!(
+        damaged(&words, |s| s[at(fw, REFS + fk)] = 5),
+        Err(FormatError::BadWideNode { .. })
+    ));
+    assert!(matches!(
+        damaged(&words, |s| s[at(fw, BOXES + fk)] = 0f32.to_bits()),
+        Err(FormatError::BadWideNode { .. })
+    ));
+    // A leaf's box shrunk off its triangles, moved outside its cell, or made NaN.
+    let lo_x = at(lw, BOXES + lk);
+    let hi_x = at(lw, BOXES + 8 + lk);
+    assert!(
+        matches!(
+            damaged(&words, |s| s[lo_x] = s[hi_x]),
+            Err(FormatError::BadWideBox { .. })
+        ),
+        "a box shrunk to its high face"
+    );
+    assert!(matches!(
+        damaged(&words, |s| s[hi_x] = 1e30f32.to_bits()),
+        Err(FormatError::BadWideBox { .. })
+    ));
+    assert!(matches!(
+        damaged(&words, |s| s[lo_x] = f32::NAN.to_bits()),
+        Err(FormatError::BadWideBox { .. })
+    ));
+    // A wide child's box that no longer holds its children's.
+    let wlo = at(ww, BOXES + 16 + wk); // low y
+    let whi = at(ww, BOXES + 24 + wk); // high y
+    assert!(matches!(
+        damaged(&words, |s| s[wlo] = s[whi]),
+        Err(FormatError::BadWideBox { .. })
+    ));
+    // A section shorter by a node, or with its bit cleared.
+    let mut w = words.clone();
+    w[header::WIDE_COUNT] -= 1;
+    seal(&mut w);
+    assert!(Scene::from_words(&w).is_err());
+    let mut w = words.clone();
+    w[header::CONTENTS] &= !contents::WIDE;
+    seal(&mut w);
+    assert_eq!(Scene::from_words(&w).err(), Some(FormatError::BadContents));
+    // The undamaged words validate, and a box grown inside its cell still does (it costs time,
+    // not answers).
+    assert!(damaged(&words, |_| {}).is_ok());
+    let _ = wide::LEVELS;
+}
