@@ -2,29 +2,16 @@
 // wasm-bindgen). This file knows nothing about where the module's bytes come from: index.js
 // passes the inlined base64, or a user calls init() with a URL, bytes or a compiled module.
 
+import { buildFlags, loadOptions, meshArgs, vec3, checkSize } from './args.js';
+
+export { buildFlags };
+
 // A module with one SIMD instruction (i8x16.splat of i32.const 0, then drop): it validates only
 // where WebAssembly SIMD is supported; a module with SIMD fails to load anywhere else (Safari
 // before 16.4), and WebAssembly has no run-time feature detection.
 const SIMD_PROBE = new Uint8Array([
   0, 97, 115, 109, 1, 0, 0, 0, 1, 4, 1, 96, 0, 0, 3, 2, 1, 0, 10, 9, 1, 7, 0, 65, 0, 253, 15, 26, 11,
 ]);
-
-/**
- * kdj_build's `layout` and `leaves` arguments from a build's options: `layout` 'nodes' (default)
- * or 'blocked'; `leaves` 'groups' (default: triangles four to a SIMD group, tested at once) or
- * 'list' (index lists: about half the memory, slower single rays). Anything else throws.
- */
-export function buildFlags(options) {
-  const layout = options?.layout ?? 'nodes';
-  const leaves = options?.leaves ?? 'groups';
-  if (layout !== 'nodes' && layout !== 'blocked') {
-    throw new TypeError(`kdray: options.layout must be 'nodes' or 'blocked', not ${JSON.stringify(layout)}`);
-  }
-  if (leaves !== 'groups' && leaves !== 'list') {
-    throw new TypeError(`kdray: options.leaves must be 'groups' or 'list', not ${JSON.stringify(leaves)}`);
-  }
-  return [layout === 'blocked' ? 1 : 0, leaves === 'groups' ? 1 : 0];
-}
 
 /** Whether this engine runs WebAssembly SIMD (simd128). */
 export function simdSupported() {
@@ -66,7 +53,7 @@ export function initWith(source) {
       s = s[variant];
     }
     if (typeof s === 'function') s = s();
-    if (typeof s === 'string' || s instanceof URL) s = fetch(s);
+    if (typeof s === 'string' || s instanceof URL) s = fetchOrRead(s);
     s = await s;
     let module;
     if (s instanceof WebAssembly.Module) module = s;
@@ -79,9 +66,28 @@ export function initWith(source) {
   return loading;
 }
 
+// A URL's or path's bytes: in Node a path or a `file:` URL (what `import.meta.resolve` gives)
+// is read from the disk, as Node's fetch cannot; anything else is fetched.
+async function fetchOrRead(s) {
+  if (typeof process === 'object' && process.versions?.node) {
+    const scheme = /^([a-z][a-z0-9+.-]+):/i.exec(String(s))?.[1].toLowerCase();
+    if (scheme === undefined || scheme === 'file') {
+      const name = 'node:fs/promises'; // in a variable, so that bundlers leave it alone
+      const { readFile } = await import(/* @vite-ignore */ /* webpackIgnore: true */ name);
+      return readFile(scheme ? new URL(s) : s);
+    }
+  }
+  return fetch(s);
+}
+
 /** The same, synchronously from bytes (Node, workers; browsers limit synchronous compiles). */
 export function initSyncWith(bytes) {
   if (!wasm) fromModule(new WebAssembly.Module(bytes));
+}
+
+/** The scenes' instance's memory (the tests' window on it; not exported by the package). */
+export function moduleMemory() {
+  return wasm?.memory ?? null;
 }
 
 /** Which module is in use: 'simd128', 'scalar', or null before loading. */
@@ -94,10 +100,18 @@ export function setVariant(v) {
 }
 
 function exportsOrThrow() {
-  if (!wasm) {
-    throw new Error('kdray: the WebAssembly module is not loaded yet: `await init()` (or `await Scene.build(...)`) first');
-  }
+  if (!wasm) syncInit();
   return wasm;
+}
+
+// What a synchronous call does when the module is not loaded: the default entry compiles its
+// inlined module there and then (index.js); kdray/core, which has no source, throws.
+let syncInit = () => {
+  throw new Error('kdray: the WebAssembly module is not loaded yet: `await init(source)` first (kdray/core)');
+};
+
+export function setSyncInit(f) {
+  syncInit = f;
 }
 
 // The module's last failure, as an Error.
@@ -105,7 +119,7 @@ function failure(kd, code, what) {
   const n = kd.kdj_error_len();
   let text = `error ${code}`;
   if (n > 0) {
-    const p = kd.kdj_alloc(n);
+    const p = kd.kdj_alloc(n) >>> 0;
     kd.kdj_error(p, n);
     text = new TextDecoder().decode(new Uint8Array(kd.memory.buffer, p, n).slice());
     kd.kdj_free(p);
@@ -113,24 +127,86 @@ function failure(kd, code, what) {
   return new Error(`kdray: ${what}: ${text}`);
 }
 
-// Copies a typed array into a fresh module buffer; returns its address.
-function put(kd, array) {
+// Copies a typed array into a fresh module buffer; returns its address (unsigned: past 2 GiB
+// an i32 export's result reads negative).
+function put(kd, array, what) {
   const bytes = new Uint8Array(array.buffer, array.byteOffset, array.byteLength);
-  const p = kd.kdj_alloc(bytes.length);
-  if (p === 0) throw new Error(`kdray: out of memory (${bytes.length} bytes)`);
+  checkSize(bytes.length, what);
+  const p = kd.kdj_alloc(bytes.length) >>> 0;
+  if (p === 0) throw outOfMemory(kd, `${what} (${bytes.length} bytes)`);
   new Uint8Array(kd.memory.buffer, p, bytes.length).set(bytes);
   return p;
 }
 
-function vec3(v, name) {
-  if (v == null || typeof v !== 'object') throw new TypeError(`kdray: ${name} must be an array of 3 numbers or {x, y, z}`);
-  if ('x' in v) return [v.x, v.y, v.z];
-  if (v.length !== 3) throw new TypeError(`kdray: ${name} must have 3 numbers, not ${v.length}`);
-  return v;
+function outOfMemory(kd, what) {
+  const mib = (kd.memory.buffer.byteLength / 2 ** 20).toFixed(0);
+  return new Error(`kdray: out of memory for ${what}: the module's memory is at ${mib} MiB and cannot grow enough (WebAssembly's limit: 4 GiB)`);
+}
+
+// Builds run in an instance of their own (of the same compiled module), never in the scenes':
+// the builder's vectors cannot recover from a failed allocation, and an allocation failure
+// there aborts — in WebAssembly a trap that leaves the instance unusable. A trapped builder is
+// dropped and the next build makes another; the scenes never notice. The tree's words are then
+// copied into the scenes' instance. A builder whose memory grew past BUILDER_KEEP is dropped
+// too, so a large build's peak is not kept for the page's life.
+let builder = null;
+const BUILDER_KEEP = 256 * 2 ** 20;
+
+function buildWords(kd, positions, indices, layout, leaves) {
+  const b = builder ?? (builder = new WebAssembly.Instance(compiled, {}).exports);
+  let handle = 0;
+  try {
+    const pos = positions.length ? put(b, positions, 'the positions') : 0;
+    const idx = indices ? put(b, indices.length ? indices : new Uint32Array(1), 'the indices') : 0;
+    handle = b.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
+    if (pos) b.kdj_free(pos);
+    if (idx) b.kdj_free(idx);
+    if (handle < 0) throw failure(b, handle, 'cannot build the mesh');
+    const words = new Uint8Array(b.memory.buffer, b.kdj_words(handle) >>> 0, 4 * b.kdj_word_count(handle));
+    return load(kd, words, 'the built tree');
+  } catch (e) {
+    if (!(e instanceof WebAssembly.RuntimeError)) throw e;
+    builder = null;
+    const triangles = (indices ? indices.length : positions.length / 3) / 3;
+    const failed = b.kdj_failed_alloc() >>> 0;
+    if (failed === 0) throw new Error(`kdray: cannot build the mesh: the module failed (${e.message}): please report this mesh (${triangles} triangles)`);
+    throw outOfMemory(b, `building ${triangles} triangles (an allocation of ${failed} bytes failed)`);
+  } finally {
+    if (builder === b) {
+      if (handle > 0) b.kdj_drop(handle);
+      if (b.memory.buffer.byteLength > BUILDER_KEEP) builder = null;
+    }
+  }
+}
+
+// Loads .kdt bytes into the scenes' instance; returns the scene's handle.
+function load(kd, bytes, what) {
+  const p = put(kd, bytes.length ? bytes : new Uint8Array(1), what);
+  let handle;
+  try {
+    handle = kd.kdj_load(p, bytes.length);
+  } finally {
+    kd.kdj_free(p);
+  }
+  if (handle < 0) throw failure(kd, handle, 'not a valid .kdt');
+  return handle;
+}
+
+// What a scene holds in the module: its handle and raycastMany's buffers. The registry frees
+// all of it when a scene is collected without dispose() (it holds this object, not the scene).
+function held(handle) {
+  return { handle, rays: 0, hits: 0, cap: 0 };
+}
+
+function release(kd, h) {
+  if (h.rays) kd.kdj_free(h.rays);
+  if (h.hits) kd.kdj_free(h.hits);
+  kd.kdj_drop(h.handle);
+  h.rays = h.hits = h.cap = h.handle = 0;
 }
 
 const registry = typeof FinalizationRegistry === 'function'
-  ? new FinalizationRegistry((handle) => { if (wasm) wasm.kdj_drop(handle); })
+  ? new FinalizationRegistry((h) => { if (wasm) release(wasm, h); })
   : null;
 
 /** A triangle mesh's kd-tree, in the WebAssembly module's memory. */
@@ -140,9 +216,7 @@ export class Scene {
   #f32 = null; // views of the module's memory, made again when it grows
   #u32 = null;
   #i32 = null;
-  #rays = 0; // raycastMany's buffers in the module, and their size in rays
-  #hits = 0;
-  #cap = 0;
+  #held; // the handle and raycastMany's buffers (held())
   #inView = null; // cached views of those buffers for the last n (no allocation per call)
   #outView = null;
   #viewN = -1;
@@ -150,8 +224,9 @@ export class Scene {
 
   constructor(handle, options) {
     this.#handle = handle;
+    this.#held = held(handle);
     this.#watertight = !!options?.watertight;
-    registry?.register(this, handle, this);
+    registry?.register(this, this.#held, this);
   }
 
   /** Builds the SAH kd-tree of a mesh. Resolves when the module is loaded and the tree built. */
@@ -162,31 +237,10 @@ export class Scene {
 
   /** Scene.build once the module is loaded (`await init()`). */
   static buildSync(positions, indices, options) {
-    if (indices != null && !(indices instanceof Uint32Array || indices instanceof Uint16Array)) {
-      if (typeof indices === 'object' && !ArrayBuffer.isView(indices) && options === undefined) {
-        options = indices; // Scene.build(positions, options)
-        indices = undefined;
-      } else {
-        throw new TypeError('kdray: indices must be a Uint32Array or Uint16Array (or omitted)');
-      }
-    }
-    if (!(positions instanceof Float32Array)) {
-      throw new TypeError('kdray: positions must be a Float32Array (x, y, z a vertex)');
-    }
+    [positions, indices, options] = meshArgs(positions, indices, options);
     const [layout, leaves] = buildFlags(options);
     const kd = exportsOrThrow();
-    if (indices instanceof Uint16Array) indices = Uint32Array.from(indices);
-    const pos = positions.length ? put(kd, positions) : 0;
-    const idx = indices ? put(kd, indices.length ? indices : new Uint32Array(1)) : 0;
-    let handle;
-    try {
-      handle = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
-    } finally {
-      if (pos) kd.kdj_free(pos);
-      if (idx) kd.kdj_free(idx);
-    }
-    if (handle < 0) throw failure(kd, handle, 'cannot build the mesh');
-    return new Scene(handle, options);
+    return new Scene(buildWords(kd, positions, indices, layout, leaves), options);
   }
 
   /** A scene from the bytes of a `.kdt` (`kdray build`, or `scene.toBytes()`). */
@@ -200,17 +254,9 @@ export class Scene {
       bytes = new Uint8Array(bytes);
     }
     if (!ArrayBuffer.isView(bytes)) throw new TypeError('kdray: fromBytes takes a Uint8Array or ArrayBuffer');
+    options = loadOptions(options);
     const kd = exportsOrThrow();
-    const u8 = new Uint8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength);
-    const p = put(kd, u8.length ? u8 : new Uint8Array(1));
-    let handle;
-    try {
-      handle = kd.kdj_load(p, u8.length);
-    } finally {
-      kd.kdj_free(p);
-    }
-    if (handle < 0) throw failure(kd, handle, 'not a valid .kdt');
-    return new Scene(handle, options);
+    return new Scene(load(kd, new Uint8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength), 'the .kdt bytes'), options);
   }
 
   #kd() {
@@ -229,7 +275,7 @@ export class Scene {
   /** The `.kdt` bytes (a copy): `Scene.fromBytes` loads them again, `kdray info` reads them. */
   toBytes() {
     const kd = this.#kd();
-    const p = kd.kdj_words(this.#handle);
+    const p = kd.kdj_words(this.#handle) >>> 0;
     const n = kd.kdj_word_count(this.#handle);
     return new Uint8Array(kd.memory.buffer, p, 4 * n).slice();
   }
@@ -238,9 +284,7 @@ export class Scene {
   dispose() {
     if (this.#handle !== 0 && wasm) {
       registry?.unregister(this);
-      if (this.#rays) wasm.kdj_free(this.#rays);
-      if (this.#hits) wasm.kdj_free(this.#hits);
-      wasm.kdj_drop(this.#handle);
+      release(wasm, this.#held);
     }
     this.#handle = 0;
   }
@@ -253,7 +297,8 @@ export class Scene {
   /** triangles, nodes, depth, bounds: { min: [x, y, z], max: [x, y, z] }. */
   get info() {
     const kd = this.#kd();
-    const p = kd.kdj_alloc(40);
+    const p = kd.kdj_alloc(40) >>> 0;
+    if (p === 0) throw outOfMemory(kd, 'scene.info');
     try {
       kd.kdj_info(this.#handle, p);
       const u = new Uint32Array(kd.memory.buffer, p, 10);
@@ -318,36 +363,45 @@ export class Scene {
       throw new TypeError('kdray: rays must be a Float32Array of 8 floats a ray (origin, direction, near, far)');
     }
     const n = rays.length / 8;
-    if (hits === undefined) hits = new Float32Array(4 * n);
-    else if (!(hits instanceof Float32Array) || hits.length < 4 * n) {
+    // Sizes are checked here: 32·n and 16·n would wrap as the export's i32 arguments.
+    checkSize(48 * n, `${n} rays and their hits`);
+    if (hits !== undefined && (!(hits instanceof Float32Array) || hits.length < 4 * n)) {
       throw new TypeError(`kdray: hits must be a Float32Array of at least ${4 * n} floats (4 a ray)`);
     }
-    if (n === 0) return hits;
     let kd = this.#kd();
-    if (n > this.#cap) {
-      if (this.#rays) kd.kdj_free(this.#rays);
-      if (this.#hits) kd.kdj_free(this.#hits);
-      this.#rays = kd.kdj_alloc(32 * n);
-      this.#hits = kd.kdj_alloc(16 * n);
-      if (!this.#rays || !this.#hits) throw new Error(`kdray: out of memory for ${n} rays`);
-      this.#cap = n;
+    hits ??= new Float32Array(4 * n);
+    if (n === 0) return hits;
+    const h = this.#held;
+    if (n > h.cap) {
+      // The old buffers go first (the new ones may need their memory); if the new ones cannot
+      // be had, the scene is left without buffers, as a new scene is.
+      if (h.rays) kd.kdj_free(h.rays);
+      if (h.hits) kd.kdj_free(h.hits);
+      h.cap = h.rays = h.hits = 0;
       this.#viewN = -1;
+      const r = kd.kdj_alloc(32 * n) >>> 0;
+      const o = r ? kd.kdj_alloc(16 * n) >>> 0 : 0;
+      if (o === 0) {
+        if (r) kd.kdj_free(r);
+        throw outOfMemory(kd, `${n} rays (${48 * n} bytes of buffers)`);
+      }
+      [h.rays, h.hits, h.cap] = [r, o, n];
     }
     kd = this.#kd();
     if (this.#viewN !== n || this.#viewBuffer !== kd.memory.buffer) {
-      this.#inView = new Float32Array(kd.memory.buffer, this.#rays, 8 * n);
-      this.#outView = new Float32Array(kd.memory.buffer, this.#hits, 4 * n);
+      this.#inView = new Float32Array(kd.memory.buffer, h.rays, 8 * n);
+      this.#outView = new Float32Array(kd.memory.buffer, h.hits, 4 * n);
       this.#viewN = n;
       this.#viewBuffer = kd.memory.buffer;
     }
     this.#inView.set(rays);
-    const r = kd.kdj_raycast_many(this.#handle, this.#watertight ? 1 : 0, this.#rays, n, this.#hits);
+    const r = kd.kdj_raycast_many(this.#handle, this.#watertight ? 1 : 0, h.rays, n, h.hits);
     if (r < 0) throw failure(kd, r, 'raycastMany');
     if (this.#viewBuffer !== kd.memory.buffer) {
       // The stream's scratch grew the memory: the views are detached.
       this.#viewBuffer = kd.memory.buffer;
-      this.#inView = new Float32Array(kd.memory.buffer, this.#rays, 8 * n);
-      this.#outView = new Float32Array(kd.memory.buffer, this.#hits, 4 * n);
+      this.#inView = new Float32Array(kd.memory.buffer, h.rays, 8 * n);
+      this.#outView = new Float32Array(kd.memory.buffer, h.hits, 4 * n);
     }
     hits.set(this.#outView);
     return hits;

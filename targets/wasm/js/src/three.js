@@ -14,6 +14,10 @@ import { Scene, init, initSync } from './index.js';
 
 export { init };
 
+// three's own Mesh.raycast, kept before anyone replaces it with acceleratedRaycast: the fallback
+// for meshes without a tree (calling Mesh.prototype.raycast then would call acceleratedRaycast).
+const threeRaycast = Mesh.prototype.raycast;
+
 /** The kd-tree of a BufferGeometry, kept as `geometry.boundsTree`. */
 export class KdTree {
   constructor(geometry, options = {}) {
@@ -30,13 +34,8 @@ export class KdTree {
     } else {
       positions = pos.array.subarray(0, 3 * pos.count);
     }
-    let indices;
-    if (geometry.index) {
-      const a = geometry.index.array;
-      indices = a instanceof Uint32Array ? a : Uint32Array.from(a);
-    }
     initSync();
-    this.scene = Scene.buildSync(positions, indices, options);
+    this.scene = Scene.buildSync(positions, geometry.index ?? undefined, options);
     this.geometry = geometry;
   }
 
@@ -132,7 +131,7 @@ function intersection(mesh, hit, o, d, world, materialIndex) {
 export function acceleratedRaycast(raycaster, intersects) {
   const tree = this.geometry?.boundsTree;
   if (!(tree instanceof KdTree) || this.material === undefined) {
-    return Mesh.prototype.raycast.call(this, raycaster, intersects);
+    return threeRaycast.call(this, raycaster, intersects);
   }
   const { geometry, matrixWorld } = this;
   _inverse.copy(matrixWorld).invert();
