@@ -40,8 +40,9 @@ function fromModule(module) {
 
 /**
  * Loads the module once. `source`: a `WebAssembly.Module`, bytes (`ArrayBuffer` or a typed
- * array), a `Response` or promise of one, or a URL (string or `URL`) to fetch; with
- * `{ scalar, simd128 }` of any of these, the one this engine runs is taken.
+ * array), a `Response` or promise of one, or a URL (string or `URL`) to fetch — in Node a
+ * `file:` URL or a path is read from the disk; with `{ scalar, simd128 }` of any of these, the
+ * one this engine runs is taken.
  */
 export function initWith(source) {
   if (wasm) return Promise.resolve();

@@ -4,7 +4,7 @@
 //   THREE.BufferGeometry.prototype.computeBoundsTree = computeBoundsTree;
 //   THREE.BufferGeometry.prototype.disposeBoundsTree = disposeBoundsTree;
 //   THREE.Mesh.prototype.raycast = acceleratedRaycast;
-//   await init();                      // once: loads the WebAssembly module
+//   await init();                      // optional: loads the module ahead of the first build
 //   geometry.computeBoundsTree();
 // acceleratedRaycast returns three's Intersection objects, as Mesh.raycast does: it honours
 // raycaster.firstHitOnly, near and far, the mesh's world matrix, the material's side and, with an
