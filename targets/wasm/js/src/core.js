@@ -115,15 +115,20 @@ export function setSyncInit(f) {
   syncInit = f;
 }
 
+// The module's failure code when it could not get the memory a call needs (module/src/memory.rs).
+const OUT_OF_MEMORY = -4;
+
 // The module's last failure, as an Error.
 function failure(kd, code, what) {
   const n = kd.kdj_error_len();
   let text = `error ${code}`;
   if (n > 0) {
     const p = kd.kdj_alloc(n) >>> 0;
-    kd.kdj_error(p, n);
-    text = new TextDecoder().decode(new Uint8Array(kd.memory.buffer, p, n).slice());
-    kd.kdj_free(p);
+    if (p !== 0) {
+      kd.kdj_error(p, n);
+      text = new TextDecoder().decode(new Uint8Array(kd.memory.buffer, p, n).slice());
+      kd.kdj_free(p);
+    }
   }
   return new Error(`kdray: ${what}: ${text}`);
 }
@@ -155,13 +160,11 @@ const BUILDER_KEEP = 256 * 2 ** 20;
 
 function buildWords(kd, positions, indices, layout, leaves) {
   const b = builder ?? (builder = new WebAssembly.Instance(compiled, {}).exports);
-  let handle = 0;
+  let pos = 0, idx = 0, handle = 0;
   try {
-    const pos = positions.length ? put(b, positions, 'the positions') : 0;
-    const idx = indices ? put(b, indices.length ? indices : new Uint32Array(1), 'the indices') : 0;
+    pos = positions.length ? put(b, positions, 'the positions') : 0;
+    idx = indices ? put(b, indices.length ? indices : new Uint32Array(1), 'the indices') : 0;
     handle = b.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
-    if (pos) b.kdj_free(pos);
-    if (idx) b.kdj_free(idx);
     if (handle < 0) throw failure(b, handle, 'cannot build the mesh');
     const words = new Uint8Array(b.memory.buffer, b.kdj_words(handle) >>> 0, 4 * b.kdj_word_count(handle));
     return load(kd, words, 'the built tree');
@@ -174,6 +177,8 @@ function buildWords(kd, positions, indices, layout, leaves) {
     throw outOfMemory(b, `building ${triangles} triangles (an allocation of ${failed} bytes failed)`);
   } finally {
     if (builder === b) {
+      if (pos) b.kdj_free(pos);
+      if (idx) b.kdj_free(idx);
       if (handle > 0) b.kdj_drop(handle);
       if (b.memory.buffer.byteLength > BUILDER_KEEP) builder = null;
     }
@@ -189,7 +194,7 @@ function load(kd, bytes, what) {
   } finally {
     kd.kdj_free(p);
   }
-  if (handle < 0) throw failure(kd, handle, 'not a valid .kdt');
+  if (handle < 0) throw failure(kd, handle, handle === OUT_OF_MEMORY ? `cannot load ${what}` : 'not a valid .kdt');
   return handle;
 }
 

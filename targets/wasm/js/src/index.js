@@ -26,7 +26,13 @@ export function init() {
 
 /** Loads the module synchronously (Node and workers; a browser's main thread may refuse). */
 export function initSync() {
-  if (!moduleVariant()) initSyncWith(chosen());
+  if (moduleVariant()) return;
+  try {
+    initSyncWith(chosen());
+  } catch (e) {
+    if (!(e instanceof RangeError)) throw e;
+    throw new Error(`kdray: this engine does not compile the module synchronously here (${e.message}): \`await init()\` first`);
+  }
 }
 
 setDefaultInit(init);
