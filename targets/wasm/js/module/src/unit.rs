@@ -24,7 +24,9 @@ pub fn ray(watertight: bool, o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f32) -> 
     // In f64: the squares of a subnormal f32 component do not underflow there.
     let [x, y, z] = d.map(f64::from);
     let len = (x * x + y * y + z * z).sqrt();
-    if len == 1.0 || len == 0.0 || !len.is_finite() {
+    // Directions already of unit length up to f32 rounding are traced as given, bit for bit as
+    // `kdray trace` traces them.
+    if (len - 1.0).abs() < 1e-6 || len == 0.0 || !len.is_finite() {
         return (given, 1.0);
     }
     let ray = Ray {
@@ -62,5 +64,7 @@ mod tests {
         let (r, len) = ray(true, [0.0; 3], [0.0, 0.0, -1e-7], 0.0, 1.0);
         assert_eq!((r.dir.z, len), (-1e-7, 1.0));
         assert_eq!(ray(false, [0.0; 3], [0.0, 0.0, 0.0], 0.0, 1.0).1, 1.0);
+        let (r, len) = ray(false, [0.0; 3], [0.6, 0.8, 1e-8], 0.0, 1.0);
+        assert_eq!((r.dir, len), (Vec3::new(0.6, 0.8, 1e-8), 1.0));
     }
 }
