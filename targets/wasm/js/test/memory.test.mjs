@@ -1,9 +1,10 @@
-// Out of memory (issue 29): the module limited to 96 MiB (test/limited.mjs), builds and
-// raycastMany calls too large for it. Each is an Error naming the size, and every scene built
+// Out of memory (issue 29): the module limited to 96 MiB (test/limited.mjs), builds (here and
+// on a worker) and raycastMany calls too large for it. Each is an Error naming the size, and every scene built
 // before still answers as it did; small builds and loads go on working.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { Scene, init } from '../src/streaming.js';
+import { buildInWorker } from '../src/worker.js';
 import { limitedModule } from './limited.mjs';
 import { bunny, rays } from './meshes.mjs';
 
@@ -50,6 +51,9 @@ test('builds and ray batches past the memory limit fail with an Error; every oth
     assert.throws(() => scene.raycastMany(new Float32Array(8 * n)), outOfMemory(`${n} rays`));
     stillAnswer(before);
   }
+  // The worker builds with the same module: its out of memory is named too (was "unreachable").
+  await assert.rejects(buildInWorker(new Float32Array([0, 0, 0, 1, 0, 0, 0, 1, 0]), copies), /cannot build the mesh: out of memory building 1048576 triangles \(an allocation of \d+ bytes failed/);
+  stillAnswer(before);
   // Scenes keep being made, and the ones from before keep answering.
   const after = await scenes();
   stillAnswer(before);
