@@ -121,15 +121,7 @@ const OUT_OF_MEMORY = -4;
 // The module's last failure, as an Error.
 function failure(kd, code, what) {
   const n = kd.kdj_error_len();
-  let text = `error ${code}`;
-  if (n > 0) {
-    const p = kd.kdj_alloc(n) >>> 0;
-    if (p !== 0) {
-      kd.kdj_error(p, n);
-      text = new TextDecoder().decode(new Uint8Array(kd.memory.buffer, p, n).slice());
-      kd.kdj_free(p);
-    }
-  }
+  const text = n > 0 ? new TextDecoder().decode(new Uint8Array(kd.memory.buffer, kd.kdj_error() >>> 0, n).slice()) : `error ${code}`;
   return new Error(`kdray: ${what}: ${text}`);
 }
 
@@ -166,8 +158,6 @@ function buildWords(kd, positions, indices, layout, leaves) {
     idx = indices ? put(b, indices.length ? indices : new Uint32Array(1), 'the indices') : 0;
     handle = b.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
     if (handle < 0) throw failure(b, handle, 'cannot build the mesh');
-    const words = new Uint8Array(b.memory.buffer, b.kdj_words(handle) >>> 0, 4 * b.kdj_word_count(handle));
-    return load(kd, words, 'the built tree');
   } catch (e) {
     if (!(e instanceof WebAssembly.RuntimeError)) throw e;
     builder = null;
@@ -179,9 +169,14 @@ function buildWords(kd, positions, indices, layout, leaves) {
     if (builder === b) {
       if (pos) b.kdj_free(pos);
       if (idx) b.kdj_free(idx);
-      if (handle > 0) b.kdj_drop(handle);
-      if (b.memory.buffer.byteLength > BUILDER_KEEP) builder = null;
     }
+  }
+  try {
+    const words = new Uint8Array(b.memory.buffer, b.kdj_words(handle) >>> 0, 4 * b.kdj_word_count(handle));
+    return guarded(() => load(kd, words, 'the built tree'), 'cannot load the built tree');
+  } finally {
+    b.kdj_drop(handle);
+    if (b.memory.buffer.byteLength > BUILDER_KEEP) builder = null;
   }
 }
 
@@ -198,10 +193,23 @@ function load(kd, bytes, what) {
   return handle;
 }
 
-// What a scene holds in the module: its handle and raycastMany's buffers. The registry frees
-// all of it when a scene is collected without dispose() (it holds this object, not the scene).
+// What a scene holds in the module: its handle, where its words lie (they never move: the
+// module leaks them until the scene is dropped) and raycastMany's buffers. The registry frees all
+// of it when a scene is collected without dispose() (it holds this record, not the scene).
+const live = new Set(); // the records of the scenes not disposed
+
+function attach(h, handle) {
+  h.handle = handle;
+  h.words = wasm.kdj_words(handle) >>> 0;
+  h.count = wasm.kdj_word_count(handle);
+  h.rays = h.hits = h.cap = 0;
+}
+
 function held(handle) {
-  return { handle, rays: 0, hits: 0, cap: 0 };
+  const h = { handle: 0, words: 0, count: 0, rays: 0, hits: 0, cap: 0, lost: false };
+  attach(h, handle);
+  live.add(h);
+  return h;
 }
 
 function release(kd, h) {
@@ -209,27 +217,66 @@ function release(kd, h) {
   if (h.hits) kd.kdj_free(h.hits);
   kd.kdj_drop(h.handle);
   h.rays = h.hits = h.cap = h.handle = 0;
+  live.delete(h);
 }
 
 const registry = typeof FinalizationRegistry === 'function'
-  ? new FinalizationRegistry((h) => { if (wasm) release(wasm, h); })
+  ? new FinalizationRegistry((h) => { if (wasm && h.handle) release(wasm, h); })
   : null;
+
+// The scenes' instance is replaced when a call traps in it (an allocation that cannot fail
+// gracefully, with the memory full to the byte): its memory stays readable, so every live
+// scene's words are copied out and loaded into a fresh instance of the same module; views of
+// the old memory are refreshed by `generation`. raycastMany's buffers start again empty.
+let generation = 0;
+
+function recover() {
+  const dead = wasm;
+  const saved = [...live].map((h) => [h, new Uint8Array(dead.memory.buffer, h.words, 4 * h.count).slice()]);
+  fromModule(compiled);
+  generation++;
+  for (const [h, bytes] of saved) {
+    try {
+      attach(h, load(wasm, bytes, 'a scene'));
+    } catch {
+      h.handle = 0;
+      h.lost = true;
+      live.delete(h);
+    }
+  }
+}
+
+// Runs a call into the scenes' instance; a trap there becomes an Error (after recover()).
+function guarded(f, what) {
+  try {
+    return f();
+  } catch (e) {
+    throw trapped(e, what);
+  }
+}
+
+function trapped(e, what) {
+  if (!(e instanceof WebAssembly.RuntimeError)) return e;
+  const failed = wasm.kdj_failed_alloc() >>> 0;
+  recover();
+  const why = failed ? `out of memory (an allocation of ${failed} bytes failed)` : `the module failed (${e.message})`;
+  return new Error(`kdray: ${what}: ${why}; the module was started again with every scene reloaded`);
+}
 
 /** A triangle mesh's kd-tree, in the WebAssembly module's memory. */
 export class Scene {
-  #handle;
   #watertight;
   #f32 = null; // views of the module's memory, made again when it grows
   #u32 = null;
   #i32 = null;
-  #held; // the handle and raycastMany's buffers (held())
+  #held; // the handle, the words and raycastMany's buffers (held())
+  #generation = -1; // of the instance the views above are of
   #inView = null; // cached views of those buffers for the last n (no allocation per call)
   #outView = null;
   #viewN = -1;
   #viewBuffer = null;
 
   constructor(handle, options) {
-    this.#handle = handle;
     this.#held = held(handle);
     this.#watertight = !!options?.watertight;
     registry?.register(this, this.#held, this);
@@ -262,18 +309,24 @@ export class Scene {
     if (!ArrayBuffer.isView(bytes)) throw new TypeError('kdray: fromBytes takes a Uint8Array or ArrayBuffer');
     options = loadOptions(options);
     const kd = exportsOrThrow();
-    return new Scene(load(kd, new Uint8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength), 'the .kdt bytes'), options);
+    const u8 = new Uint8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+    return new Scene(guarded(() => load(kd, u8, 'the .kdt bytes'), 'Scene.fromBytes'), options);
   }
 
   #kd() {
-    if (this.#handle === 0) throw new Error('kdray: the scene was disposed');
-    const kd = wasm ?? exportsOrThrow();
+    const h = this.#held;
+    if (h.handle === 0) {
+      throw new Error(h.lost ? 'kdray: the scene was lost: the module ran out of memory reloading it after a failure' : 'kdray: the scene was disposed');
+    }
+    const kd = wasm;
     // Growing the module's memory detaches the old buffer (its views read as length 0), so a
-    // live view is current; asking `memory.buffer` each call cost ~30 ns of a ~200 ns raycast.
-    if (this.#f32 === null || this.#f32.byteLength === 0) {
+    // live view is current unless the instance was replaced; asking `memory.buffer` each call
+    // cost ~30 ns of a ~200 ns raycast.
+    if (this.#f32 === null || this.#f32.byteLength === 0 || this.#generation !== generation) {
       this.#f32 = new Float32Array(kd.memory.buffer);
       this.#u32 = new Uint32Array(kd.memory.buffer);
       this.#i32 = new Int32Array(kd.memory.buffer);
+      this.#generation = generation;
     }
     return kd;
   }
@@ -281,18 +334,16 @@ export class Scene {
   /** The `.kdt` bytes (a copy): `Scene.fromBytes` loads them again, `kdray info` reads them. */
   toBytes() {
     const kd = this.#kd();
-    const p = kd.kdj_words(this.#handle) >>> 0;
-    const n = kd.kdj_word_count(this.#handle);
-    return new Uint8Array(kd.memory.buffer, p, 4 * n).slice();
+    const h = this.#held;
+    return new Uint8Array(kd.memory.buffer, h.words, 4 * h.count).slice();
   }
 
   /** Frees the tree (the scene cannot be used afterwards). */
   dispose() {
-    if (this.#handle !== 0 && wasm) {
+    if (this.#held.handle !== 0 && wasm) {
       registry?.unregister(this);
       release(wasm, this.#held);
     }
-    this.#handle = 0;
   }
 
   /** Whether queries use the watertight kernel. */
@@ -303,10 +354,10 @@ export class Scene {
   /** triangles, nodes, depth, bounds: { min: [x, y, z], max: [x, y, z] }. */
   get info() {
     const kd = this.#kd();
-    const p = kd.kdj_alloc(40) >>> 0;
+    const p = guarded(() => kd.kdj_alloc(40) >>> 0, 'scene.info');
     if (p === 0) throw outOfMemory(kd, 'scene.info');
     try {
-      kd.kdj_info(this.#handle, p);
+      kd.kdj_info(this.#held.handle, p);
       const u = new Uint32Array(kd.memory.buffer, p, 10);
       const f = new Float32Array(kd.memory.buffer, p, 10);
       return { triangles: u[0], nodes: u[1], depth: u[2], bounds: { min: [f[3], f[4], f[5]], max: [f[6], f[7], f[8]] }, simd128: u[9] === 1 };
@@ -330,7 +381,12 @@ export class Scene {
     else [ox, oy, oz] = vec3(origin, 'origin');
     if (direction?.length === 3) [dx, dy, dz] = [direction[0], direction[1], direction[2]];
     else [dx, dy, dz] = vec3(direction, 'direction');
-    const r = kd.kdj_raycast(this.#handle, this.#watertight ? 1 : 0, ox, oy, oz, dx, dy, dz, near, far);
+    let r;
+    try {
+      r = kd.kdj_raycast(this.#held.handle, this.#watertight ? 1 : 0, ox, oy, oz, dx, dy, dz, near, far);
+    } catch (e) {
+      throw trapped(e, 'raycast');
+    }
     if (r <= 0) {
       if (r < 0) throw failure(kd, r, 'raycast');
       return null;
@@ -352,7 +408,7 @@ export class Scene {
     const kd = this.#kd();
     const o = vec3(origin, 'origin');
     const d = vec3(direction, 'direction');
-    const r = kd.kdj_occluded(this.#handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
+    const r = guarded(() => kd.kdj_occluded(this.#held.handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far), 'occluded');
     if (r < 0) throw failure(kd, r, 'occluded');
     return r === 1;
   }
@@ -374,9 +430,14 @@ export class Scene {
     if (hits !== undefined && (!(hits instanceof Float32Array) || hits.length < 4 * n)) {
       throw new TypeError(`kdray: hits must be a Float32Array of at least ${4 * n} floats (4 a ray)`);
     }
-    let kd = this.#kd();
+    this.#kd();
     hits ??= new Float32Array(4 * n);
     if (n === 0) return hits;
+    return guarded(() => this.#many(rays, hits, n), 'raycastMany');
+  }
+
+  #many(rays, hits, n) {
+    let kd = this.#kd();
     const h = this.#held;
     if (n > h.cap) {
       // The old buffers go first (the new ones may need their memory); if the new ones cannot
@@ -401,7 +462,7 @@ export class Scene {
       this.#viewBuffer = kd.memory.buffer;
     }
     this.#inView.set(rays);
-    const r = kd.kdj_raycast_many(this.#handle, this.#watertight ? 1 : 0, h.rays, n, h.hits);
+    const r = kd.kdj_raycast_many(h.handle, this.#watertight ? 1 : 0, h.rays, n, h.hits);
     if (r < 0) throw failure(kd, r, 'raycastMany');
     if (this.#viewBuffer !== kd.memory.buffer) {
       // The stream's scratch grew the memory: the views are detached.
@@ -423,10 +484,12 @@ export class Scene {
     const kd = this.#kd();
     const o = vec3(origin, 'origin');
     const d = vec3(direction, 'direction');
-    const n = kd.kdj_intersect_all(this.#handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
-    if (n < 0) throw failure(kd, n, 'intersectAll');
+    const [n, at] = guarded(() => {
+      const count = kd.kdj_intersect_all(this.#held.handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
+      if (count < 0) throw failure(kd, count, 'intersectAll');
+      return [count, kd.kdj_all() >>> 2];
+    }, 'intersectAll');
     this.#kd();
-    const at = kd.kdj_all() >>> 2;
     const out = [];
     for (let i = 0; i < n; i++) {
       const k = at + 5 * i;
@@ -448,18 +511,22 @@ export class Scene {
     const kd = this.#kd();
     const o = vec3(origin, 'origin');
     const d = vec3(direction, 'direction');
-    const n = kd.kdj_intersect_all(this.#handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
-    if (n < 0) throw failure(kd, n, 'crossings');
-    return n;
+    return guarded(() => {
+      const n = kd.kdj_intersect_all(this.#held.handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
+      if (n < 0) throw failure(kd, n, 'crossings');
+      return n;
+    }, 'crossings');
   }
 
   /** Whether `point` is inside the closed mesh: odd crossings of a watertight ray along +x. */
   contains(point) {
     const p = vec3(point, 'point');
     const kd = this.#kd();
-    const n = kd.kdj_intersect_all(this.#handle, 1, p[0], p[1], p[2], 1, 0, 0, 0, Infinity);
-    if (n < 0) throw failure(kd, n, 'contains');
-    return n % 2 === 1;
+    return guarded(() => {
+      const n = kd.kdj_intersect_all(this.#held.handle, 1, p[0], p[1], p[2], 1, 0, 0, 0, Infinity);
+      if (n < 0) throw failure(kd, n, 'contains');
+      return n % 2 === 1;
+    }, 'contains');
   }
 }
 

@@ -26,9 +26,7 @@ on(async ({ module, positions, indices, layout, leaves, shared }) => {
       throw new Error('out of memory building ' + (indices ? indices.length : positions.length / 3) / 3 + ' triangles (an allocation of ' + failed + ' bytes failed; a WebAssembly memory holds at most 4 GiB)');
     }
     if (h < 0) {
-      const n = kd.kdj_error_len(), p = kd.kdj_alloc(n || 1) >>> 0;
-      kd.kdj_error(p, n);
-      throw new Error(new TextDecoder().decode(new Uint8Array(kd.memory.buffer, p, n).slice()));
+      throw new Error(new TextDecoder().decode(new Uint8Array(kd.memory.buffer, kd.kdj_error() >>> 0, kd.kdj_error_len()).slice()));
     }
     const words = new Uint8Array(kd.memory.buffer, kd.kdj_words(h) >>> 0, 4 * kd.kdj_word_count(h));
     const out = new Uint8Array(shared ? new SharedArrayBuffer(words.length) : new ArrayBuffer(words.length));

@@ -9,6 +9,7 @@ import { limitedModule } from './limited.mjs';
 import { bunny, rays } from './meshes.mjs';
 
 const LIMIT_MIB = 96;
+await init(limitedModule(LIMIT_MIB));
 
 // Scenes, and what each answered when it was made.
 async function scenes() {
@@ -34,7 +35,6 @@ const outOfMemory = (what) => (e) => e instanceof Error && !(e instanceof WebAss
   && /out of memory/.test(e.message) && e.message.includes(what);
 
 test('builds and ray batches past the memory limit fail with an Error; every other scene answers as before', async () => {
-  await init(limitedModule(LIMIT_MIB));
   const before = await scenes();
   // 2²⁰ copies of one triangle: 12 MiB of indices fit, the build's working memory does not (a
   // trap in the builder's own instance, reported from its last failed allocation).
@@ -61,4 +61,48 @@ test('builds and ray batches past the memory limit fail with an Error; every oth
   const loaded = await Scene.fromBytes(before[1].scene.toBytes(), { watertight: true });
   assert.deepEqual(loaded.raycastMany(before[1].r), before[1].hits);
   for (const { scene: s } of [...before, ...after]) s.dispose();
+});
+
+test('memory full to the byte: every call answers or throws an Error, and then every scene answers as before', async () => {
+  const before = await scenes();
+  const tiny = (await Scene.build(new Float32Array([0, 0, 0, 1, 0, 0, 0, 1, 0]))).toBytes();
+  // Fill the memory with scenes' raycastMany buffers, halving the size at each refusal, until
+  // not even a 1-triangle scene loads: an allocation that cannot fail gracefully then traps,
+  // and the package starts the module again with every scene reloaded.
+  const fillers = [];
+  let full;
+  for (let n = 2 ** 20; n >= 1 && !full;) {
+    let s;
+    try {
+      s = Scene.fromBytesSync(tiny);
+    } catch (e) {
+      full = e;
+      break;
+    }
+    try {
+      s.raycastMany(new Float32Array(8 * n));
+      fillers.push(s);
+    } catch (e) {
+      assert.ok(!(e instanceof WebAssembly.RuntimeError), e.stack);
+      s.dispose();
+      n = Math.floor(n / 2);
+    }
+  }
+  assert.ok(full instanceof Error && !(full instanceof WebAssembly.RuntimeError) && /out of memory/.test(full.message), `${full}`);
+  const { scene, r } = before[0];
+  for (const call of [
+    () => scene.raycast(r.subarray(0, 3), r.subarray(3, 6)), () => scene.intersectAll(r.subarray(0, 3), r.subarray(3, 6)),
+    () => scene.crossings(r.subarray(0, 3), r.subarray(3, 6)), () => scene.contains([0, 0, 0]), () => scene.occluded(r.subarray(0, 3), r.subarray(3, 6)),
+    () => scene.info, () => scene.toBytes(), () => scene.raycastMany(r), () => Scene.fromBytesSync(tiny), () => Scene.buildSync(new Float32Array(9)),
+  ]) {
+    try {
+      call();
+    } catch (e) {
+      assert.ok(!(e instanceof WebAssembly.RuntimeError) && /^kdray: /.test(e.message), e.stack);
+    }
+  }
+  stillAnswer(before);
+  for (const f of fillers) f.dispose();
+  stillAnswer(before);
+  assert.equal((await Scene.fromBytes(tiny)).info.triangles, 1);
 });

@@ -10,7 +10,7 @@
 //! writes positions/indices (or `.kdt` bytes) there, calls [`kdj_build`] (or [`kdj_load`]),
 //! which returns a scene handle (> 0) and takes ownership of nothing; queries name the handle.
 //! Every export returns an `i32`: ≥ 0 success (or a count), < 0 a failure whose text
-//! [`kdj_error`] gives. Pointers are checked against the live buffers from [`kdj_alloc`]; no
+//! [`kdj_error`] holds. Pointers are checked against the live buffers from [`kdj_alloc`]; no
 //! input makes the module trap.
 //!
 //! Memory may grow on any call that allocates ([`kdj_alloc`], [`kdj_build`], [`kdj_load`],
@@ -109,6 +109,8 @@ thread_local! {
 }
 
 fn with_state(f: impl FnOnce(&mut State) -> Result<i32, (i32, String)>) -> i32 {
+    // A failed allocation noted before belongs to a call that recovered from it.
+    memory::clear_failed();
     STATE.with_borrow_mut(|state| match f(state) {
         Ok(n) => n,
         Err((code, msg)) => {
@@ -235,7 +237,6 @@ pub extern "C" fn kdj_build(
     layout: u32,
     leaves: u32,
 ) -> i32 {
-    memory::clear_failed();
     with_state(|s| {
         let positions = if n_pos == 0 {
             &[][..]
@@ -521,16 +522,11 @@ pub extern "C" fn kdj_all() -> i32 {
     STATE.with_borrow(|s| s.all_words.as_ptr() as i32)
 }
 
-/// Copies the last failure's text (UTF-8) to `dst_ptr`, at most `cap` bytes; returns the
-/// number copied.
+/// The address of the last failure's text (UTF-8, [`kdj_error_len`] bytes), read in place:
+/// reading it allocates nothing, even with the memory full.
 #[unsafe(no_mangle)]
-pub extern "C" fn kdj_error(dst_ptr: u32, cap: u32) -> i32 {
-    with_state(|s| {
-        let n = s.error.len().min(cap as usize);
-        let dst = s.slice_mut::<u8>(dst_ptr, n as u32)?;
-        dst.copy_from_slice(&s.error.as_bytes()[..n]);
-        Ok(n as i32)
-    })
+pub extern "C" fn kdj_error() -> i32 {
+    STATE.with_borrow(|s| s.error.as_ptr() as i32)
 }
 
 /// The size in bytes of the last allocation that failed (0: none): read from an instance that

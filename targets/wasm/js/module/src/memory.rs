@@ -21,7 +21,7 @@ pub fn failed() -> u32 {
     FAILED.load(Ordering::Relaxed)
 }
 
-/// Forgets an earlier failure (a call that recovered from it), before work that may abort.
+/// Forgets an earlier failure (of a call that recovered from it), before work that may abort.
 pub fn clear_failed() {
     FAILED.store(0, Ordering::Relaxed);
 }
