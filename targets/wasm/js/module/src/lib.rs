@@ -23,6 +23,7 @@ pub mod mesh;
 mod unit;
 
 use core::cell::RefCell;
+use glam::Vec3;
 use kdray::flat::{Layout, Leaves};
 use kdray_core::format::contents;
 use kdray_core::traverse::Mode;
@@ -426,19 +427,17 @@ pub extern "C" fn kdj_raycast_many(
             rays.clear();
             lens.clear();
             try_reserve(&mut rays, n, &what)?;
-            try_reserve(&mut lens, n, &what)?;
             try_reserve(&mut hits, n, &what)?;
             try_reserve(&mut scratch, stream::scratch_words(n), &what)?;
-            for w in input {
-                let (ray, len) = unit::ray(
-                    watertight != 0,
-                    [w[0], w[1], w[2]],
-                    [w[3], w[4], w[5]],
-                    w[6],
-                    w[7],
-                );
-                rays.push(ray);
-                lens.push(len);
+            rays.extend(input.iter().map(|w| Ray {
+                origin: Vec3::new(w[0], w[1], w[2]),
+                dir: Vec3::new(w[3], w[4], w[5]),
+                tmin: w[6],
+                tmax: w[7],
+            }));
+            if watertight == 0 && !rays.iter().all(|r| unit::near_unit(r.dir)) {
+                try_reserve(&mut lens, n, &what)?;
+                unit::make_unit(&mut rays, &mut lens);
             }
             hits.clear();
             hits.resize(n, Hit::MISS);
@@ -451,17 +450,16 @@ pub extern "C" fn kdj_raycast_many(
             stream::intersect(scene, &config, &rays, &mut hits, &mut scratch)
                 .map_err(|e| (BAD_ARGUMENT, format!("internal: {e}")))?;
             let mut count = 0;
-            for ((h, w), &len) in hits.iter().zip(out.iter_mut()).zip(&lens) {
+            for (i, (h, w)) in hits.iter().zip(out.iter_mut()).enumerate() {
                 count += i32::from(h.is_hit());
                 let id = if h.is_hit() {
                     scene.input_id(h.prim)
                 } else {
                     u32::MAX
                 };
-                let t = if h.is_hit() {
-                    unit::t_back(h.t, len)
-                } else {
-                    h.t
+                let t = match lens.get(i) {
+                    Some(&len) if h.is_hit() => unit::t_back(h.t, len),
+                    _ => h.t,
                 };
                 *w = [t.to_bits(), id, h.u.to_bits(), h.v.to_bits()];
             }

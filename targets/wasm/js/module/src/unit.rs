@@ -18,14 +18,12 @@ pub fn ray(watertight: bool, o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f32) -> 
         tmin,
         tmax,
     };
-    if watertight {
+    if watertight || near_unit(given.dir) {
         return (given, 1.0);
     }
     // In f64: the squares of a subnormal f32 component do not underflow there.
     let [x, y, z] = d.map(f64::from);
     let len = (x * x + y * y + z * z).sqrt();
-    // Directions already of unit length up to f32 rounding are traced as given, bit for bit as
-    // `kdray trace` traces them.
     if (len - 1.0).abs() < 1e-6 || len == 0.0 || !len.is_finite() {
         return (given, 1.0);
     }
@@ -36,6 +34,24 @@ pub fn ray(watertight: bool, o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f32) -> 
         tmax: (f64::from(tmax) * len) as f32,
     };
     (ray, len as f32)
+}
+
+/// Whether a direction is of unit length up to f32 rounding: such rays are traced as given, bit
+/// for bit as `kdray trace` traces them (the common case, decided without f64).
+#[inline]
+pub fn near_unit(d: Vec3) -> bool {
+    (d.length_squared() - 1.0).abs() < 2e-6
+}
+
+/// Fast mode's rays made unit in place ([`ray`] for each), with each one's factor pushed to
+/// `lens`, which must have room for `rays.len()` of them (the caller skips this when every
+/// direction is [`near_unit`]).
+pub fn make_unit(rays: &mut [Ray], lens: &mut Vec<f32>) {
+    for r in rays.iter_mut() {
+        let (unit, len) = ray(false, r.origin.to_array(), r.dir.to_array(), r.tmin, r.tmax);
+        *r = unit;
+        lens.push(len);
+    }
 }
 
 /// `t` of the unit ray, in lengths of the given direction.
