@@ -5,7 +5,8 @@
 #   dist/kdray_simd128.wasm   -C target-feature=+simd128: wide's f32x4 packets on WASM SIMD
 # Reproducible: the paths compiled into the modules are remapped (no home or checkout path), no
 # time is recorded, and Cargo.lock pins every crate; the same toolchain gives the same bytes
-# (`build.sh --check` rebuilds into a temporary folder and compares with dist/).
+# (`build.sh --check` rebuilds into a temporary folder and compares with dist/). After a shipping
+# build (with LTO, not CI's) scripts/sizes.mjs writes the README's size figures.
 # CARGO_TARGET_DIR is respected (default: target/ under the repository root, js/ in it).
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -39,4 +40,8 @@ if [[ $check == yes ]]; then
   echo "build.sh: dist/ is what this source builds"
 else
   ls -l "$out"/kdray_*.wasm "$out"/inline.js | awk '{print $NF, $5, "bytes"}'
+  # The README's size figures, from a shipping build only (CI builds without LTO: larger).
+  if [[ "${CARGO_PROFILE_RELEASE_LTO:-}" != off ]]; then
+    node "$here/scripts/sizes.mjs"
+  fi
 fi

@@ -2,29 +2,16 @@
 // wasm-bindgen). This file knows nothing about where the module's bytes come from: index.js
 // passes the inlined base64, or a user calls init() with a URL, bytes or a compiled module.
 
+import { buildFlags, loadOptions, meshArgs, vec3, checkSize } from './args.js';
+
+export { buildFlags };
+
 // A module with one SIMD instruction (i8x16.splat of i32.const 0, then drop): it validates only
 // where WebAssembly SIMD is supported; a module with SIMD fails to load anywhere else (Safari
 // before 16.4), and WebAssembly has no run-time feature detection.
 const SIMD_PROBE = new Uint8Array([
   0, 97, 115, 109, 1, 0, 0, 0, 1, 4, 1, 96, 0, 0, 3, 2, 1, 0, 10, 9, 1, 7, 0, 65, 0, 253, 15, 26, 11,
 ]);
-
-/**
- * kdj_build's `layout` and `leaves` arguments from a build's options: `layout` 'nodes' (default)
- * or 'blocked'; `leaves` 'groups' (default: triangles four to a SIMD group, tested at once) or
- * 'list' (index lists: about half the memory, slower single rays). Anything else throws.
- */
-export function buildFlags(options) {
-  const layout = options?.layout ?? 'nodes';
-  const leaves = options?.leaves ?? 'groups';
-  if (layout !== 'nodes' && layout !== 'blocked') {
-    throw new TypeError(`kdray: options.layout must be 'nodes' or 'blocked', not ${JSON.stringify(layout)}`);
-  }
-  if (leaves !== 'groups' && leaves !== 'list') {
-    throw new TypeError(`kdray: options.leaves must be 'groups' or 'list', not ${JSON.stringify(leaves)}`);
-  }
-  return [layout === 'blocked' ? 1 : 0, leaves === 'groups' ? 1 : 0];
-}
 
 /** Whether this engine runs WebAssembly SIMD (simd128). */
 export function simdSupported() {
@@ -53,8 +40,9 @@ function fromModule(module) {
 
 /**
  * Loads the module once. `source`: a `WebAssembly.Module`, bytes (`ArrayBuffer` or a typed
- * array), a `Response` or promise of one, or a URL (string or `URL`) to fetch; with
- * `{ scalar, simd128 }` of any of these, the one this engine runs is taken.
+ * array), a `Response` or promise of one, or a URL (string or `URL`) to fetch — in Node a
+ * `file:` URL or a path is read from the disk; with `{ scalar, simd128 }` of any of these, the
+ * one this engine runs is taken.
  */
 export function initWith(source) {
   if (wasm) return Promise.resolve();
@@ -66,7 +54,7 @@ export function initWith(source) {
       s = s[variant];
     }
     if (typeof s === 'function') s = s();
-    if (typeof s === 'string' || s instanceof URL) s = fetch(s);
+    if (typeof s === 'string' || s instanceof URL) s = fetchOrRead(s);
     s = await s;
     let module;
     if (s instanceof WebAssembly.Module) module = s;
@@ -79,9 +67,28 @@ export function initWith(source) {
   return loading;
 }
 
+// A URL's or path's bytes: in Node a path or a `file:` URL (what `import.meta.resolve` gives)
+// is read from the disk, as Node's fetch cannot; anything else is fetched.
+async function fetchOrRead(s) {
+  if (typeof process === 'object' && process.versions?.node) {
+    const scheme = /^([a-z][a-z0-9+.-]+):/i.exec(String(s))?.[1].toLowerCase();
+    if (scheme === undefined || scheme === 'file') {
+      const name = 'node:fs/promises'; // in a variable, so that bundlers leave it alone
+      const { readFile } = await import(/* @vite-ignore */ /* webpackIgnore: true */ name);
+      return readFile(scheme ? new URL(s) : s);
+    }
+  }
+  return fetch(s);
+}
+
 /** The same, synchronously from bytes (Node, workers; browsers limit synchronous compiles). */
 export function initSyncWith(bytes) {
   if (!wasm) fromModule(new WebAssembly.Module(bytes));
+}
+
+/** The scenes' instance's memory (the tests' window on it; not exported by the package). */
+export function moduleMemory() {
+  return wasm?.memory ?? null;
 }
 
 /** Which module is in use: 'simd128', 'scalar', or null before loading. */
@@ -94,64 +101,185 @@ export function setVariant(v) {
 }
 
 function exportsOrThrow() {
-  if (!wasm) {
-    throw new Error('kdray: the WebAssembly module is not loaded yet: `await init()` (or `await Scene.build(...)`) first');
-  }
+  if (!wasm) syncInit();
   return wasm;
 }
+
+// What a synchronous call does when the module is not loaded: the default entry compiles its
+// inlined module there and then (index.js); kdray/core, which has no source, throws.
+let syncInit = () => {
+  throw new Error('kdray: the WebAssembly module is not loaded yet: `await init(source)` first (kdray/core)');
+};
+
+export function setSyncInit(f) {
+  syncInit = f;
+}
+
+// The module's failure code when it could not get the memory a call needs (module/src/memory.rs).
+const OUT_OF_MEMORY = -4;
 
 // The module's last failure, as an Error.
 function failure(kd, code, what) {
   const n = kd.kdj_error_len();
-  let text = `error ${code}`;
-  if (n > 0) {
-    const p = kd.kdj_alloc(n);
-    kd.kdj_error(p, n);
-    text = new TextDecoder().decode(new Uint8Array(kd.memory.buffer, p, n).slice());
-    kd.kdj_free(p);
-  }
+  const text = n > 0 ? new TextDecoder().decode(new Uint8Array(kd.memory.buffer, kd.kdj_error() >>> 0, n).slice()) : `error ${code}`;
   return new Error(`kdray: ${what}: ${text}`);
 }
 
-// Copies a typed array into a fresh module buffer; returns its address.
-function put(kd, array) {
+// Copies a typed array into a fresh module buffer; returns its address (unsigned: past 2 GiB
+// an i32 export's result reads negative).
+function put(kd, array, what) {
   const bytes = new Uint8Array(array.buffer, array.byteOffset, array.byteLength);
-  const p = kd.kdj_alloc(bytes.length);
-  if (p === 0) throw new Error(`kdray: out of memory (${bytes.length} bytes)`);
+  checkSize(bytes.length, what);
+  const p = kd.kdj_alloc(bytes.length) >>> 0;
+  if (p === 0) throw outOfMemory(kd, `${what} (${bytes.length} bytes)`);
   new Uint8Array(kd.memory.buffer, p, bytes.length).set(bytes);
   return p;
 }
 
-function vec3(v, name) {
-  if (v == null || typeof v !== 'object') throw new TypeError(`kdray: ${name} must be an array of 3 numbers or {x, y, z}`);
-  if ('x' in v) return [v.x, v.y, v.z];
-  if (v.length !== 3) throw new TypeError(`kdray: ${name} must have 3 numbers, not ${v.length}`);
-  return v;
+function outOfMemory(kd, what) {
+  const mib = (kd.memory.buffer.byteLength / 2 ** 20).toFixed(0);
+  return new Error(`kdray: out of memory for ${what}: the module's memory is at ${mib} MiB and cannot grow enough (WebAssembly's limit: 4 GiB)`);
+}
+
+// Builds run in an instance of their own (of the same compiled module), never in the scenes':
+// the builder's vectors cannot recover from a failed allocation, and an allocation failure
+// there aborts — in WebAssembly a trap that leaves the instance unusable. A trapped builder is
+// dropped and the next build makes another; the scenes never notice. The tree's words are then
+// copied into the scenes' instance. A builder whose memory grew past BUILDER_KEEP is dropped
+// too, so a large build's peak is not kept for the page's life.
+let builder = null;
+const BUILDER_KEEP = 256 * 2 ** 20;
+
+function buildWords(kd, positions, indices, layout, leaves) {
+  const b = builder ?? (builder = new WebAssembly.Instance(compiled, {}).exports);
+  let pos = 0, idx = 0, handle = 0;
+  try {
+    pos = positions.length ? put(b, positions, 'the positions') : 0;
+    idx = indices ? put(b, indices.length ? indices : new Uint32Array(1), 'the indices') : 0;
+    handle = b.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
+    if (handle < 0) throw failure(b, handle, 'cannot build the mesh');
+  } catch (e) {
+    if (!(e instanceof WebAssembly.RuntimeError)) throw e;
+    builder = null;
+    const triangles = (indices ? indices.length : positions.length / 3) / 3;
+    const failed = b.kdj_failed_alloc() >>> 0;
+    if (failed === 0) throw new Error(`kdray: cannot build the mesh: the module failed (${e.message}): please report this mesh (${triangles} triangles)`);
+    throw outOfMemory(b, `building ${triangles} triangles (an allocation of ${failed} bytes failed)`);
+  } finally {
+    if (builder === b) {
+      if (pos) b.kdj_free(pos);
+      if (idx) b.kdj_free(idx);
+    }
+  }
+  try {
+    const words = new Uint8Array(b.memory.buffer, b.kdj_words(handle) >>> 0, 4 * b.kdj_word_count(handle));
+    return guarded(() => load(kd, words, 'the built tree'), 'cannot load the built tree');
+  } finally {
+    b.kdj_drop(handle);
+    if (b.memory.buffer.byteLength > BUILDER_KEEP) builder = null;
+  }
+}
+
+// Loads .kdt bytes into the scenes' instance; returns the scene's handle.
+function load(kd, bytes, what) {
+  const p = put(kd, bytes.length ? bytes : new Uint8Array(1), what);
+  let handle;
+  try {
+    handle = kd.kdj_load(p, bytes.length);
+  } finally {
+    kd.kdj_free(p);
+  }
+  if (handle < 0) throw failure(kd, handle, handle === OUT_OF_MEMORY ? `cannot load ${what}` : 'not a valid .kdt');
+  return handle;
+}
+
+// What a scene holds in the module: its handle, where its words lie (they never move: the
+// module leaks them until the scene is dropped) and raycastMany's buffers. The registry frees all
+// of it when a scene is collected without dispose() (it holds this record, not the scene).
+const live = new Set(); // the records of the scenes not disposed
+
+function attach(h, handle) {
+  h.handle = handle;
+  h.words = wasm.kdj_words(handle) >>> 0;
+  h.count = wasm.kdj_word_count(handle);
+  h.rays = h.hits = h.cap = 0;
+}
+
+function held(handle) {
+  const h = { handle: 0, words: 0, count: 0, rays: 0, hits: 0, cap: 0, lost: false };
+  attach(h, handle);
+  live.add(h);
+  return h;
+}
+
+function release(kd, h) {
+  if (h.rays) kd.kdj_free(h.rays);
+  if (h.hits) kd.kdj_free(h.hits);
+  kd.kdj_drop(h.handle);
+  h.rays = h.hits = h.cap = h.handle = 0;
+  live.delete(h);
 }
 
 const registry = typeof FinalizationRegistry === 'function'
-  ? new FinalizationRegistry((handle) => { if (wasm) wasm.kdj_drop(handle); })
+  ? new FinalizationRegistry((h) => { if (wasm && h.handle) release(wasm, h); })
   : null;
+
+// The scenes' instance is replaced when a call traps in it (an allocation that cannot fail
+// gracefully, with the memory full to the byte): its memory stays readable, so every live
+// scene's words are copied out and loaded into a fresh instance of the same module; views of
+// the old memory are refreshed by `generation`. raycastMany's buffers start again empty.
+let generation = 0;
+
+function recover() {
+  const dead = wasm;
+  const saved = [...live].map((h) => [h, new Uint8Array(dead.memory.buffer, h.words, 4 * h.count).slice()]);
+  fromModule(compiled);
+  generation++;
+  for (const [h, bytes] of saved) {
+    try {
+      attach(h, load(wasm, bytes, 'a scene'));
+    } catch {
+      h.handle = 0;
+      h.lost = true;
+      live.delete(h);
+    }
+  }
+}
+
+// Runs a call into the scenes' instance; a trap there becomes an Error (after recover()).
+function guarded(f, what) {
+  try {
+    return f();
+  } catch (e) {
+    throw trapped(e, what);
+  }
+}
+
+function trapped(e, what) {
+  if (!(e instanceof WebAssembly.RuntimeError)) return e;
+  const failed = wasm.kdj_failed_alloc() >>> 0;
+  recover();
+  const why = failed ? `out of memory (an allocation of ${failed} bytes failed)` : `the module failed (${e.message})`;
+  return new Error(`kdray: ${what}: ${why}; the module was started again with every scene reloaded`);
+}
 
 /** A triangle mesh's kd-tree, in the WebAssembly module's memory. */
 export class Scene {
-  #handle;
   #watertight;
   #f32 = null; // views of the module's memory, made again when it grows
   #u32 = null;
   #i32 = null;
-  #rays = 0; // raycastMany's buffers in the module, and their size in rays
-  #hits = 0;
-  #cap = 0;
+  #held; // the handle, the words and raycastMany's buffers (held())
+  #generation = -1; // of the instance the views above are of
   #inView = null; // cached views of those buffers for the last n (no allocation per call)
   #outView = null;
   #viewN = -1;
   #viewBuffer = null;
 
   constructor(handle, options) {
-    this.#handle = handle;
+    this.#held = held(handle);
     this.#watertight = !!options?.watertight;
-    registry?.register(this, handle, this);
+    registry?.register(this, this.#held, this);
   }
 
   /** Builds the SAH kd-tree of a mesh. Resolves when the module is loaded and the tree built. */
@@ -162,31 +290,10 @@ export class Scene {
 
   /** Scene.build once the module is loaded (`await init()`). */
   static buildSync(positions, indices, options) {
-    if (indices != null && !(indices instanceof Uint32Array || indices instanceof Uint16Array)) {
-      if (typeof indices === 'object' && !ArrayBuffer.isView(indices) && options === undefined) {
-        options = indices; // Scene.build(positions, options)
-        indices = undefined;
-      } else {
-        throw new TypeError('kdray: indices must be a Uint32Array or Uint16Array (or omitted)');
-      }
-    }
-    if (!(positions instanceof Float32Array)) {
-      throw new TypeError('kdray: positions must be a Float32Array (x, y, z a vertex)');
-    }
+    [positions, indices, options] = meshArgs(positions, indices, options);
     const [layout, leaves] = buildFlags(options);
     const kd = exportsOrThrow();
-    if (indices instanceof Uint16Array) indices = Uint32Array.from(indices);
-    const pos = positions.length ? put(kd, positions) : 0;
-    const idx = indices ? put(kd, indices.length ? indices : new Uint32Array(1)) : 0;
-    let handle;
-    try {
-      handle = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
-    } finally {
-      if (pos) kd.kdj_free(pos);
-      if (idx) kd.kdj_free(idx);
-    }
-    if (handle < 0) throw failure(kd, handle, 'cannot build the mesh');
-    return new Scene(handle, options);
+    return new Scene(buildWords(kd, positions, indices, layout, leaves), options);
   }
 
   /** A scene from the bytes of a `.kdt` (`kdray build`, or `scene.toBytes()`). */
@@ -200,28 +307,26 @@ export class Scene {
       bytes = new Uint8Array(bytes);
     }
     if (!ArrayBuffer.isView(bytes)) throw new TypeError('kdray: fromBytes takes a Uint8Array or ArrayBuffer');
+    options = loadOptions(options);
     const kd = exportsOrThrow();
     const u8 = new Uint8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength);
-    const p = put(kd, u8.length ? u8 : new Uint8Array(1));
-    let handle;
-    try {
-      handle = kd.kdj_load(p, u8.length);
-    } finally {
-      kd.kdj_free(p);
-    }
-    if (handle < 0) throw failure(kd, handle, 'not a valid .kdt');
-    return new Scene(handle, options);
+    return new Scene(guarded(() => load(kd, u8, 'the .kdt bytes'), 'Scene.fromBytes'), options);
   }
 
   #kd() {
-    if (this.#handle === 0) throw new Error('kdray: the scene was disposed');
-    const kd = wasm ?? exportsOrThrow();
+    const h = this.#held;
+    if (h.handle === 0) {
+      throw new Error(h.lost ? 'kdray: the scene was lost: the module ran out of memory reloading it after a failure' : 'kdray: the scene was disposed');
+    }
+    const kd = wasm;
     // Growing the module's memory detaches the old buffer (its views read as length 0), so a
-    // live view is current; asking `memory.buffer` each call cost ~30 ns of a ~200 ns raycast.
-    if (this.#f32 === null || this.#f32.byteLength === 0) {
+    // live view is current unless the instance was replaced; asking `memory.buffer` each call
+    // cost ~30 ns of a ~200 ns raycast.
+    if (this.#f32 === null || this.#f32.byteLength === 0 || this.#generation !== generation) {
       this.#f32 = new Float32Array(kd.memory.buffer);
       this.#u32 = new Uint32Array(kd.memory.buffer);
       this.#i32 = new Int32Array(kd.memory.buffer);
+      this.#generation = generation;
     }
     return kd;
   }
@@ -229,20 +334,16 @@ export class Scene {
   /** The `.kdt` bytes (a copy): `Scene.fromBytes` loads them again, `kdray info` reads them. */
   toBytes() {
     const kd = this.#kd();
-    const p = kd.kdj_words(this.#handle);
-    const n = kd.kdj_word_count(this.#handle);
-    return new Uint8Array(kd.memory.buffer, p, 4 * n).slice();
+    const h = this.#held;
+    return new Uint8Array(kd.memory.buffer, h.words, 4 * h.count).slice();
   }
 
   /** Frees the tree (the scene cannot be used afterwards). */
   dispose() {
-    if (this.#handle !== 0 && wasm) {
+    if (this.#held.handle !== 0 && wasm) {
       registry?.unregister(this);
-      if (this.#rays) wasm.kdj_free(this.#rays);
-      if (this.#hits) wasm.kdj_free(this.#hits);
-      wasm.kdj_drop(this.#handle);
+      release(wasm, this.#held);
     }
-    this.#handle = 0;
   }
 
   /** Whether queries use the watertight kernel. */
@@ -253,9 +354,10 @@ export class Scene {
   /** triangles, nodes, depth, bounds: { min: [x, y, z], max: [x, y, z] }. */
   get info() {
     const kd = this.#kd();
-    const p = kd.kdj_alloc(40);
+    const p = guarded(() => kd.kdj_alloc(40) >>> 0, 'scene.info');
+    if (p === 0) throw outOfMemory(kd, 'scene.info');
     try {
-      kd.kdj_info(this.#handle, p);
+      kd.kdj_info(this.#held.handle, p);
       const u = new Uint32Array(kd.memory.buffer, p, 10);
       const f = new Float32Array(kd.memory.buffer, p, 10);
       return { triangles: u[0], nodes: u[1], depth: u[2], bounds: { min: [f[3], f[4], f[5]], max: [f[6], f[7], f[8]] }, simd128: u[9] === 1 };
@@ -279,7 +381,12 @@ export class Scene {
     else [ox, oy, oz] = vec3(origin, 'origin');
     if (direction?.length === 3) [dx, dy, dz] = [direction[0], direction[1], direction[2]];
     else [dx, dy, dz] = vec3(direction, 'direction');
-    const r = kd.kdj_raycast(this.#handle, this.#watertight ? 1 : 0, ox, oy, oz, dx, dy, dz, near, far);
+    let r;
+    try {
+      r = kd.kdj_raycast(this.#held.handle, this.#watertight ? 1 : 0, ox, oy, oz, dx, dy, dz, near, far);
+    } catch (e) {
+      throw trapped(e, 'raycast');
+    }
     if (r <= 0) {
       if (r < 0) throw failure(kd, r, 'raycast');
       return null;
@@ -301,7 +408,7 @@ export class Scene {
     const kd = this.#kd();
     const o = vec3(origin, 'origin');
     const d = vec3(direction, 'direction');
-    const r = kd.kdj_occluded(this.#handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
+    const r = guarded(() => kd.kdj_occluded(this.#held.handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far), 'occluded');
     if (r < 0) throw failure(kd, r, 'occluded');
     return r === 1;
   }
@@ -318,36 +425,50 @@ export class Scene {
       throw new TypeError('kdray: rays must be a Float32Array of 8 floats a ray (origin, direction, near, far)');
     }
     const n = rays.length / 8;
-    if (hits === undefined) hits = new Float32Array(4 * n);
-    else if (!(hits instanceof Float32Array) || hits.length < 4 * n) {
+    // Sizes are checked here: 32·n and 16·n would wrap as the export's i32 arguments.
+    checkSize(48 * n, `${n} rays and their hits`);
+    if (hits !== undefined && (!(hits instanceof Float32Array) || hits.length < 4 * n)) {
       throw new TypeError(`kdray: hits must be a Float32Array of at least ${4 * n} floats (4 a ray)`);
     }
+    this.#kd();
+    hits ??= new Float32Array(4 * n);
     if (n === 0) return hits;
+    return guarded(() => this.#many(rays, hits, n), 'raycastMany');
+  }
+
+  #many(rays, hits, n) {
     let kd = this.#kd();
-    if (n > this.#cap) {
-      if (this.#rays) kd.kdj_free(this.#rays);
-      if (this.#hits) kd.kdj_free(this.#hits);
-      this.#rays = kd.kdj_alloc(32 * n);
-      this.#hits = kd.kdj_alloc(16 * n);
-      if (!this.#rays || !this.#hits) throw new Error(`kdray: out of memory for ${n} rays`);
-      this.#cap = n;
+    const h = this.#held;
+    if (n > h.cap) {
+      // The old buffers go first (the new ones may need their memory); if the new ones cannot
+      // be had, the scene is left without buffers, as a new scene is.
+      if (h.rays) kd.kdj_free(h.rays);
+      if (h.hits) kd.kdj_free(h.hits);
+      h.cap = h.rays = h.hits = 0;
       this.#viewN = -1;
+      const r = kd.kdj_alloc(32 * n) >>> 0;
+      const o = r ? kd.kdj_alloc(16 * n) >>> 0 : 0;
+      if (o === 0) {
+        if (r) kd.kdj_free(r);
+        throw outOfMemory(kd, `${n} rays (${48 * n} bytes of buffers)`);
+      }
+      [h.rays, h.hits, h.cap] = [r, o, n];
     }
     kd = this.#kd();
     if (this.#viewN !== n || this.#viewBuffer !== kd.memory.buffer) {
-      this.#inView = new Float32Array(kd.memory.buffer, this.#rays, 8 * n);
-      this.#outView = new Float32Array(kd.memory.buffer, this.#hits, 4 * n);
+      this.#inView = new Float32Array(kd.memory.buffer, h.rays, 8 * n);
+      this.#outView = new Float32Array(kd.memory.buffer, h.hits, 4 * n);
       this.#viewN = n;
       this.#viewBuffer = kd.memory.buffer;
     }
     this.#inView.set(rays);
-    const r = kd.kdj_raycast_many(this.#handle, this.#watertight ? 1 : 0, this.#rays, n, this.#hits);
+    const r = kd.kdj_raycast_many(h.handle, this.#watertight ? 1 : 0, h.rays, n, h.hits);
     if (r < 0) throw failure(kd, r, 'raycastMany');
     if (this.#viewBuffer !== kd.memory.buffer) {
       // The stream's scratch grew the memory: the views are detached.
       this.#viewBuffer = kd.memory.buffer;
-      this.#inView = new Float32Array(kd.memory.buffer, this.#rays, 8 * n);
-      this.#outView = new Float32Array(kd.memory.buffer, this.#hits, 4 * n);
+      this.#inView = new Float32Array(kd.memory.buffer, h.rays, 8 * n);
+      this.#outView = new Float32Array(kd.memory.buffer, h.hits, 4 * n);
     }
     hits.set(this.#outView);
     return hits;
@@ -363,10 +484,12 @@ export class Scene {
     const kd = this.#kd();
     const o = vec3(origin, 'origin');
     const d = vec3(direction, 'direction');
-    const n = kd.kdj_intersect_all(this.#handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
-    if (n < 0) throw failure(kd, n, 'intersectAll');
+    const [n, at] = guarded(() => {
+      const count = kd.kdj_intersect_all(this.#held.handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
+      if (count < 0) throw failure(kd, count, 'intersectAll');
+      return [count, kd.kdj_all() >>> 2];
+    }, 'intersectAll');
     this.#kd();
-    const at = kd.kdj_all() >>> 2;
     const out = [];
     for (let i = 0; i < n; i++) {
       const k = at + 5 * i;
@@ -388,18 +511,22 @@ export class Scene {
     const kd = this.#kd();
     const o = vec3(origin, 'origin');
     const d = vec3(direction, 'direction');
-    const n = kd.kdj_intersect_all(this.#handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
-    if (n < 0) throw failure(kd, n, 'crossings');
-    return n;
+    return guarded(() => {
+      const n = kd.kdj_intersect_all(this.#held.handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
+      if (n < 0) throw failure(kd, n, 'crossings');
+      return n;
+    }, 'crossings');
   }
 
   /** Whether `point` is inside the closed mesh: odd crossings of a watertight ray along +x. */
   contains(point) {
     const p = vec3(point, 'point');
     const kd = this.#kd();
-    const n = kd.kdj_intersect_all(this.#handle, 1, p[0], p[1], p[2], 1, 0, 0, 0, Infinity);
-    if (n < 0) throw failure(kd, n, 'contains');
-    return n % 2 === 1;
+    return guarded(() => {
+      const n = kd.kdj_intersect_all(this.#held.handle, 1, p[0], p[1], p[2], 1, 0, 0, 0, Infinity);
+      if (n < 0) throw failure(kd, n, 'contains');
+      return n % 2 === 1;
+    }, 'contains');
   }
 }
 

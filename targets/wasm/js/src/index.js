@@ -3,7 +3,7 @@
 // WebAssembly.validate on a one-instruction SIMD probe (core.js). Those who stream the .wasm
 // files themselves import 'kdray/core' and call init() with their URLs.
 import { scalar, simd128 } from '../dist/inline.js';
-import { Scene, initWith, initSyncWith, setDefaultInit, setVariant, simdSupported, moduleVariant, compiledModule } from './core.js';
+import { Scene, initWith, initSyncWith, setDefaultInit, setSyncInit, setVariant, simdSupported, moduleVariant, compiledModule } from './core.js';
 
 function bytes(b64) {
   if (typeof Buffer === 'function') return Buffer.from(b64, 'base64');
@@ -26,9 +26,18 @@ export function init() {
 
 /** Loads the module synchronously (Node and workers; a browser's main thread may refuse). */
 export function initSync() {
-  if (!moduleVariant()) initSyncWith(chosen());
+  if (moduleVariant()) return;
+  try {
+    initSyncWith(chosen());
+  } catch (e) {
+    if (!(e instanceof RangeError)) throw e;
+    throw new Error(`kdray: this engine does not compile the module synchronously here (${e.message}): \`await init()\` first`);
+  }
 }
 
 setDefaultInit(init);
+// The synchronous calls (Scene.buildSync, fromBytesSync, kdray/three's computeBoundsTree)
+// compile the inlined module on first use when init() has not loaded it.
+setSyncInit(initSync);
 
 export { Scene, simdSupported, moduleVariant, compiledModule };

@@ -4,7 +4,7 @@
 //   THREE.BufferGeometry.prototype.computeBoundsTree = computeBoundsTree;
 //   THREE.BufferGeometry.prototype.disposeBoundsTree = disposeBoundsTree;
 //   THREE.Mesh.prototype.raycast = acceleratedRaycast;
-//   await init();                      // once: loads the WebAssembly module
+//   await init();                      // optional: loads the module ahead of the first build
 //   geometry.computeBoundsTree();
 // acceleratedRaycast returns three's Intersection objects, as Mesh.raycast does: it honours
 // raycaster.firstHitOnly, near and far, the mesh's world matrix, the material's side and, with an
@@ -13,6 +13,10 @@ import { Mesh, Matrix4, Vector3, Vector2, DoubleSide, BackSide } from 'three';
 import { Scene, init, initSync } from './index.js';
 
 export { init };
+
+// three's own Mesh.raycast, kept before anyone replaces it with acceleratedRaycast: the fallback
+// for meshes without a tree (calling Mesh.prototype.raycast then would call acceleratedRaycast).
+const threeRaycast = Mesh.prototype.raycast;
 
 /** The kd-tree of a BufferGeometry, kept as `geometry.boundsTree`. */
 export class KdTree {
@@ -30,13 +34,8 @@ export class KdTree {
     } else {
       positions = pos.array.subarray(0, 3 * pos.count);
     }
-    let indices;
-    if (geometry.index) {
-      const a = geometry.index.array;
-      indices = a instanceof Uint32Array ? a : Uint32Array.from(a);
-    }
     initSync();
-    this.scene = Scene.buildSync(positions, indices, options);
+    this.scene = Scene.buildSync(positions, geometry.index ?? undefined, options);
     this.geometry = geometry;
   }
 
@@ -132,7 +131,7 @@ function intersection(mesh, hit, o, d, world, materialIndex) {
 export function acceleratedRaycast(raycaster, intersects) {
   const tree = this.geometry?.boundsTree;
   if (!(tree instanceof KdTree) || this.material === undefined) {
-    return Mesh.prototype.raycast.call(this, raycaster, intersects);
+    return threeRaycast.call(this, raycaster, intersects);
   }
   const { geometry, matrixWorld } = this;
   _inverse.copy(matrixWorld).invert();

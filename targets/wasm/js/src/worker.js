@@ -5,7 +5,7 @@
 // or, where the page is cross-origin isolated, in a SharedArrayBuffer that several query
 // workers can load without a copy each (Scene.fromBytes(shared) in each).
 import { Scene, init, compiledModule } from './index.js';
-import { buildFlags } from './core.js';
+import { buildFlags, meshArgs } from './args.js';
 
 // The worker: the module's build protocol in a few lines (src/core.js is the full one).
 const SOURCE = `
@@ -14,16 +14,21 @@ const on = (f) => (typeof self !== 'undefined' ? (self.onmessage = (e) => f(e.da
 on(async ({ module, positions, indices, layout, leaves, shared }) => {
   try {
     const kd = (await WebAssembly.instantiate(module, {})).exports;
-    const put = (a) => { const b = new Uint8Array(a.buffer, a.byteOffset, a.byteLength); const p = kd.kdj_alloc(b.length || 1); if (!p) throw new Error('out of memory'); new Uint8Array(kd.memory.buffer, p, b.length).set(b); return p; };
+    const put = (a) => { const b = new Uint8Array(a.buffer, a.byteOffset, a.byteLength); const p = kd.kdj_alloc(b.length || 1) >>> 0; if (!p) throw new Error('out of memory for ' + b.length + ' bytes of input'); new Uint8Array(kd.memory.buffer, p, b.length).set(b); return p; };
     const pos = put(positions);
     const idx = indices ? put(indices) : 0;
-    const h = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
-    if (h < 0) {
-      const n = kd.kdj_error_len(), p = kd.kdj_alloc(n || 1);
-      kd.kdj_error(p, n);
-      throw new Error(new TextDecoder().decode(new Uint8Array(kd.memory.buffer, p, n).slice()));
+    let h;
+    try {
+      h = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
+    } catch (e) {
+      const failed = kd.kdj_failed_alloc() >>> 0;
+      if (!(e instanceof WebAssembly.RuntimeError) || failed === 0) throw e;
+      throw new Error('out of memory building ' + (indices ? indices.length : positions.length / 3) / 3 + ' triangles (an allocation of ' + failed + ' bytes failed; a WebAssembly memory holds at most 4 GiB)');
     }
-    const words = new Uint8Array(kd.memory.buffer, kd.kdj_words(h), 4 * kd.kdj_word_count(h));
+    if (h < 0) {
+      throw new Error(new TextDecoder().decode(new Uint8Array(kd.memory.buffer, kd.kdj_error() >>> 0, kd.kdj_error_len()).slice()));
+    }
+    const words = new Uint8Array(kd.memory.buffer, kd.kdj_words(h) >>> 0, 4 * kd.kdj_word_count(h));
     const out = new Uint8Array(shared ? new SharedArrayBuffer(words.length) : new ArrayBuffer(words.length));
     out.set(words);
     port.postMessage({ bytes: out }, shared ? [] : [out.buffer]);
@@ -61,8 +66,7 @@ async function spawn() {
  * `indices` are copied to the worker, not transferred: the caller keeps them.
  */
 export async function buildInWorker(positions, indices, options) {
-  if (!(positions instanceof Float32Array)) throw new TypeError('kdray: positions must be a Float32Array (x, y, z a vertex)');
-  if (indices != null && !(indices instanceof Uint32Array)) throw new TypeError('kdray: indices must be a Uint32Array (or omitted)');
+  [positions, indices, options] = meshArgs(positions, indices, options);
   const [layout, leaves] = buildFlags(options);
   await init();
   const shared = typeof SharedArrayBuffer === 'function' && globalThis.crossOriginIsolated === true;
@@ -73,7 +77,7 @@ export async function buildInWorker(positions, indices, options) {
       worker.post({ module: compiledModule(), positions, indices: indices ?? null, layout, leaves, shared });
     });
     if (reply.error) throw new Error(`kdray: cannot build the mesh: ${reply.error}`);
-    const scene = await Scene.fromBytes(reply.bytes, options);
+    const scene = await Scene.fromBytes(reply.bytes, options?.watertight === undefined ? undefined : { watertight: options.watertight });
     return { scene, bytes: reply.bytes };
   } finally {
     worker.end();

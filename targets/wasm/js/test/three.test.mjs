@@ -95,3 +95,39 @@ test('groups with a material array, first and all hits', async () => {
   await check(null, true, true);
   await check(null, true, false);
 });
+
+test('a mixed scene: a mesh with a tree, a plain mesh, and one after disposeBoundsTree (three\'s own raycast, no recursion)', async () => {
+  THREE.BufferGeometry.prototype.computeBoundsTree = computeBoundsTree;
+  THREE.BufferGeometry.prototype.disposeBoundsTree = disposeBoundsTree;
+  const treed = setup(THREE.FrontSide, false);
+  const floor = new THREE.Mesh(new THREE.PlaneGeometry(20, 20).rotateX(-Math.PI / 2), new THREE.MeshBasicMaterial({ side: THREE.DoubleSide }));
+  floor.position.y = -2.5;
+  floor.updateMatrixWorld(true);
+  const disposed = setup(THREE.DoubleSide, false);
+  disposed.mesh.position.x += 0.02;
+  disposed.mesh.updateMatrixWorld(true);
+  treed.mesh.geometry.computeBoundsTree();
+  disposed.mesh.geometry.computeBoundsTree();
+  disposed.mesh.geometry.disposeBoundsTree();
+  const objects = [treed.mesh, floor, disposed.mesh];
+  const raycaster = new THREE.Raycaster();
+  let counts = [0, 0, 0];
+  try {
+    for (const [i, [o, d]] of worldRays(treed.mesh, treed.positions, 300, 21).entries()) {
+      raycaster.set(o, d);
+      THREE.Mesh.prototype.raycast = plain;
+      const expected = raycaster.intersectObjects(objects, false);
+      THREE.Mesh.prototype.raycast = acceleratedRaycast;
+      const got = raycaster.intersectObjects(objects, false);
+      assert.equal(got.length, expected.length, `ray ${i}`);
+      for (let k = 0; k < got.length; k++) {
+        assert.equal(got[k].object, expected[k].object, `ray ${i}, hit ${k}`);
+        assert.ok(Math.abs(got[k].distance - expected[k].distance) <= 1e-5 * expected[k].distance, `ray ${i}, hit ${k}`);
+        counts[objects.indexOf(got[k].object)]++;
+      }
+    }
+  } finally {
+    THREE.Mesh.prototype.raycast = plain;
+  }
+  assert.ok(counts.every((c) => c > 20), `hits per mesh ${counts}`);
+});

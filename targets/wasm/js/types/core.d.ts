@@ -43,15 +43,23 @@ export interface SceneInfo {
   simd128: boolean;
 }
 
+/** Indices, 3 a triangle: typed, an Array of vertex numbers, or a three.js BufferAttribute (`geometry.index`). */
+export type Indices = Uint32Array | Uint16Array | ArrayLike<number> | { isBufferAttribute: true; array: ArrayLike<number>; count: number; itemSize: 1 };
+
+/** Scene.fromBytes's options: a .kdt keeps its own layout and leaves. */
+export interface LoadOptions {
+  watertight?: boolean;
+}
+
 export declare class Scene {
   /** Builds the SAH kd-tree of a mesh: positions 3 floats a vertex; without indices every 9 floats are a triangle. */
-  static build(positions: Float32Array, indices?: Uint32Array | Uint16Array | null, options?: SceneOptions): Promise<Scene>;
+  static build(positions: Float32Array, indices?: Indices | null, options?: SceneOptions): Promise<Scene>;
   static build(positions: Float32Array, options?: SceneOptions): Promise<Scene>;
-  /** Scene.build once the module is loaded (`await init()`). */
-  static buildSync(positions: Float32Array, indices?: Uint32Array | Uint16Array | null, options?: SceneOptions): Scene;
+  /** Scene.build, synchronously (the default entry compiles the module on first use; kdray/core needs `await init(source)` first). */
+  static buildSync(positions: Float32Array, indices?: Indices | null, options?: SceneOptions): Scene;
   /** A scene from a .kdt's bytes (`kdray build`, or `scene.toBytes()`). */
-  static fromBytes(bytes: Uint8Array | ArrayBuffer, options?: SceneOptions): Promise<Scene>;
-  static fromBytesSync(bytes: Uint8Array | ArrayBuffer, options?: SceneOptions): Scene;
+  static fromBytes(bytes: Uint8Array | ArrayBuffer, options?: LoadOptions): Promise<Scene>;
+  static fromBytesSync(bytes: Uint8Array | ArrayBuffer, options?: LoadOptions): Scene;
   /** The .kdt bytes (a copy). */
   toBytes(): Uint8Array;
   /** Frees the tree; the scene cannot be used afterwards. */
@@ -82,5 +90,9 @@ export declare function simdSupported(): boolean;
 export declare function moduleVariant(): string | null;
 
 type Source = WebAssembly.Module | BufferSource | Response | PromiseLike<Response> | string | URL;
-/** kdray/core only: loads the module from a URL, bytes or a Response ({ simd128, scalar }: the one this engine runs). */
+/**
+ * kdray/core only: loads the module from a URL (fetched; in Node a `file:` URL, as
+ * `import.meta.resolve` gives, or a path is read from the disk), bytes, a Response or a compiled
+ * module ({ simd128, scalar }: the one this engine runs).
+ */
 export declare function init(source: Source | { simd128: Source; scalar: Source }): Promise<void>;

@@ -1,6 +1,6 @@
 export { Scene, simdSupported, moduleVariant } from './core.js';
-export type { Vec3Like, SceneOptions, Hit, AllHit, SceneInfo } from './core.js';
+export type { Vec3Like, SceneOptions, LoadOptions, Indices, Hit, AllHit, SceneInfo } from './core.js';
 /** Loads the inlined module (the SIMD one where supported); Scene.build does it too. */
 export declare function init(): Promise<void>;
-/** Loads it synchronously (Node, workers). */
+/** Loads it synchronously (the synchronous calls do it on first use). */
 export declare function initSync(): void;

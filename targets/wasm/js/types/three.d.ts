@@ -8,7 +8,7 @@ export declare class KdTree {
   readonly geometry: BufferGeometry;
   dispose(): void;
 }
-/** Loads the WebAssembly module (once, before the first computeBoundsTree in a browser page). */
+/** Loads the WebAssembly module ahead of time (optional: computeBoundsTree compiles it on first use). */
 export declare function init(): Promise<void>;
 /** A BufferGeometry method: builds `this.boundsTree`. */
 export declare function computeBoundsTree(this: BufferGeometry, options?: SceneOptions): KdTree;

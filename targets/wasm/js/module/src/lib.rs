@@ -10,7 +10,7 @@
 //! writes positions/indices (or `.kdt` bytes) there, calls [`kdj_build`] (or [`kdj_load`]),
 //! which returns a scene handle (> 0) and takes ownership of nothing; queries name the handle.
 //! Every export returns an `i32`: ≥ 0 success (or a count), < 0 a failure whose text
-//! [`kdj_error`] gives. Pointers are checked against the live buffers from [`kdj_alloc`]; no
+//! [`kdj_error`] holds. Pointers are checked against the live buffers from [`kdj_alloc`]; no
 //! input makes the module trap.
 //!
 //! Memory may grow on any call that allocates ([`kdj_alloc`], [`kdj_build`], [`kdj_load`],
@@ -18,7 +18,9 @@
 //! made again after those.
 
 mod all;
+mod memory;
 pub mod mesh;
+mod unit;
 
 use core::cell::RefCell;
 use glam::Vec3;
@@ -27,6 +29,7 @@ use kdray_core::format::contents;
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config};
 use kdray_core::{Hit, Ray, Scene};
+use memory::try_reserve;
 use std::collections::BTreeMap;
 
 /// Failure codes (negative returns).
@@ -94,6 +97,8 @@ struct State {
     rays: Vec<Ray>,
     hits: Vec<Hit>,
     scratch: Vec<u64>,
+    /// The length of each ray's direction in fast mode (`unit`), to scale its `t` back.
+    lens: Vec<f32>,
     /// `intersectAll`'s hits, 5 words each (t, input id, u, v, facing), read at `kdj_all`.
     all: Vec<all::AllHit>,
     all_words: Vec<u32>,
@@ -105,6 +110,8 @@ thread_local! {
 }
 
 fn with_state(f: impl FnOnce(&mut State) -> Result<i32, (i32, String)>) -> i32 {
+    // A failed allocation noted before belongs to a call that recovered from it.
+    memory::clear_failed();
     STATE.with_borrow_mut(|state| match f(state) {
         Ok(n) => n,
         Err((code, msg)) => {
@@ -269,10 +276,13 @@ pub extern "C" fn kdj_load(ptr: u32, n_bytes: u32) -> i32 {
                 bytes.len()
             )));
         }
-        let words: Vec<u32> = bytes
-            .chunks_exact(4)
-            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-            .collect();
+        let mut words = Vec::new();
+        try_reserve(&mut words, bytes.len() / 4, "the .kdt's words")?;
+        words.extend(
+            bytes
+                .chunks_exact(4)
+                .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])),
+        );
         s.add(words)
     })
 }
@@ -357,18 +367,14 @@ pub extern "C" fn kdj_raycast(
 ) -> i32 {
     with_state(|s| {
         let scene = s.scene(handle)?.scene();
-        let ray = Ray {
-            origin: Vec3::new(ox, oy, oz),
-            dir: Vec3::new(dx, dy, dz),
-            tmin,
-            tmax,
-        };
+        let (ray, len) = unit::ray(watertight != 0, [ox, oy, oz], [dx, dy, dz], tmin, tmax);
         let hit = scene.intersect_in(mode(watertight), &ray);
         if !hit.is_hit() {
             return Ok(0);
         }
         let id = scene.input_id(hit.prim);
-        s.result = [hit.t.to_bits(), id, hit.u.to_bits(), hit.v.to_bits()];
+        let t = unit::t_back(hit.t, len);
+        s.result = [t.to_bits(), id, hit.u.to_bits(), hit.v.to_bits()];
         Ok(1)
     })
 }
@@ -390,12 +396,7 @@ pub extern "C" fn kdj_occluded(
 ) -> i32 {
     with_state(|s| {
         let scene = s.scene(handle)?.scene();
-        let ray = Ray {
-            origin: Vec3::new(ox, oy, oz),
-            dir: Vec3::new(dx, dy, dz),
-            tmin,
-            tmax,
-        };
+        let (ray, _) = unit::ray(watertight != 0, [ox, oy, oz], [dx, dy, dz], tmin, tmax);
         Ok(i32::from(scene.occluded_in(mode(watertight), &ray)))
     })
 }
@@ -419,17 +420,28 @@ pub extern "C" fn kdj_raycast_many(
         let mut rays = core::mem::take(&mut s.rays);
         let mut hits = core::mem::take(&mut s.hits);
         let mut scratch = core::mem::take(&mut s.scratch);
-        rays.clear();
-        rays.extend(input.iter().map(|w| Ray {
-            origin: Vec3::new(w[0], w[1], w[2]),
-            dir: Vec3::new(w[3], w[4], w[5]),
-            tmin: w[6],
-            tmax: w[7],
-        }));
-        hits.clear();
-        hits.resize(rays.len(), Hit::MISS);
-        scratch.resize(stream::scratch_words(rays.len()), 0);
+        let mut lens = core::mem::take(&mut s.lens);
         let result = (|| {
+            let n = input.len();
+            let what = format!("{n} rays");
+            rays.clear();
+            lens.clear();
+            try_reserve(&mut rays, n, &what)?;
+            try_reserve(&mut hits, n, &what)?;
+            try_reserve(&mut scratch, stream::scratch_words(n), &what)?;
+            rays.extend(input.iter().map(|w| Ray {
+                origin: Vec3::new(w[0], w[1], w[2]),
+                dir: Vec3::new(w[3], w[4], w[5]),
+                tmin: w[6],
+                tmax: w[7],
+            }));
+            if watertight == 0 && !rays.iter().all(|r| unit::near_unit(r.dir)) {
+                try_reserve(&mut lens, n, &what)?;
+                unit::make_unit(&mut rays, &mut lens);
+            }
+            hits.clear();
+            hits.resize(n, Hit::MISS);
+            scratch.resize(stream::scratch_words(n), 0);
             let scene = s.scene(handle)?.scene();
             let config = Config {
                 mode: mode(watertight),
@@ -438,18 +450,26 @@ pub extern "C" fn kdj_raycast_many(
             stream::intersect(scene, &config, &rays, &mut hits, &mut scratch)
                 .map_err(|e| (BAD_ARGUMENT, format!("internal: {e}")))?;
             let mut count = 0;
-            for (h, w) in hits.iter().zip(out.iter_mut()) {
+            for (i, (h, w)) in hits.iter().zip(out.iter_mut()).enumerate() {
                 count += i32::from(h.is_hit());
                 let id = if h.is_hit() {
                     scene.input_id(h.prim)
                 } else {
                     u32::MAX
                 };
-                *w = [h.t.to_bits(), id, h.u.to_bits(), h.v.to_bits()];
+                let t = match lens.get(i) {
+                    Some(&len) if h.is_hit() => unit::t_back(h.t, len),
+                    _ => h.t,
+                };
+                *w = [t.to_bits(), id, h.u.to_bits(), h.v.to_bits()];
             }
             Ok(count)
         })();
-        (s.rays, s.hits, s.scratch) = (rays, hits, scratch);
+        // After a failure the vectors are dropped, so that a batch too large leaves no memory
+        // reserved behind it.
+        if result.is_ok() {
+            (s.rays, s.hits, s.scratch, s.lens) = (rays, hits, scratch, lens);
+        }
         result
     })
 }
@@ -473,12 +493,7 @@ pub extern "C" fn kdj_intersect_all(
     tmax: f32,
 ) -> i32 {
     with_state(|s| {
-        let ray = Ray {
-            origin: Vec3::new(ox, oy, oz),
-            dir: Vec3::new(dx, dy, dz),
-            tmin,
-            tmax,
-        };
+        let (ray, len) = unit::ray(watertight != 0, [ox, oy, oz], [dx, dy, dz], tmin, tmax);
         let mut found = core::mem::take(&mut s.all);
         let mut words = core::mem::take(&mut s.all_words);
         let scene = s.scene(handle)?.scene();
@@ -486,7 +501,7 @@ pub extern "C" fn kdj_intersect_all(
         words.clear();
         for h in &found {
             words.extend_from_slice(&[
-                h.t.to_bits(),
+                unit::t_back(h.t, len).to_bits(),
                 scene.input_id(h.prim),
                 h.u.to_bits(),
                 h.v.to_bits(),
@@ -505,16 +520,18 @@ pub extern "C" fn kdj_all() -> i32 {
     STATE.with_borrow(|s| s.all_words.as_ptr() as i32)
 }
 
-/// Copies the last failure's text (UTF-8) to `dst_ptr`, at most `cap` bytes; returns the
-/// number copied.
+/// The address of the last failure's text (UTF-8, [`kdj_error_len`] bytes), read in place:
+/// reading it allocates nothing, even with the memory full.
 #[unsafe(no_mangle)]
-pub extern "C" fn kdj_error(dst_ptr: u32, cap: u32) -> i32 {
-    with_state(|s| {
-        let n = s.error.len().min(cap as usize);
-        let dst = s.slice_mut::<u8>(dst_ptr, n as u32)?;
-        dst.copy_from_slice(&s.error.as_bytes()[..n]);
-        Ok(n as i32)
-    })
+pub extern "C" fn kdj_error() -> i32 {
+    STATE.with_borrow(|s| s.error.as_ptr() as i32)
+}
+
+/// The size in bytes of the last allocation that failed (0: none): read from an instance that
+/// trapped, it tells an out-of-memory abort from a bug.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_failed_alloc() -> u32 {
+    memory::failed()
 }
 
 /// The length in bytes of the last failure's text.

@@ -1,0 +1,86 @@
+//! Fast mode's rays with a unit direction. Möller–Trumbore (the fast kernel) compares its
+//! determinant, which scales with the direction's length, against a fixed epsilon, so a short
+//! direction such as (0, 0, −1e−7) misses what a unit one hits. The package promises distances
+//! in lengths of the direction, for any length: fast-mode queries trace the ray with its
+//! direction divided by its length and `tmin`, `tmax` multiplied by it, and divide the hit's `t`
+//! by it again. The watertight kernel is scale-free and gets the ray as given (its exactness on
+//! shared edges depends on the direction's exact bits).
+
+use glam::Vec3;
+use kdray_core::Ray;
+
+/// A ray for the kernel of `watertight`, and the factor that turns its `t` back into lengths of
+/// the given direction (1 when the ray is unchanged).
+pub fn ray(watertight: bool, o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f32) -> (Ray, f32) {
+    let given = Ray {
+        origin: Vec3::from_array(o),
+        dir: Vec3::from_array(d),
+        tmin,
+        tmax,
+    };
+    if watertight || near_unit(given.dir) {
+        return (given, 1.0);
+    }
+    // In f64: the squares of a subnormal f32 component do not underflow there.
+    let [x, y, z] = d.map(f64::from);
+    let len = (x * x + y * y + z * z).sqrt();
+    if (len - 1.0).abs() < 1e-6 || len == 0.0 || !len.is_finite() {
+        return (given, 1.0);
+    }
+    let ray = Ray {
+        origin: given.origin,
+        dir: Vec3::new((x / len) as f32, (y / len) as f32, (z / len) as f32),
+        tmin: (f64::from(tmin) * len) as f32,
+        tmax: (f64::from(tmax) * len) as f32,
+    };
+    (ray, len as f32)
+}
+
+/// Whether a direction is of unit length up to f32 rounding: such rays are traced as given, bit
+/// for bit as `kdray trace` traces them (the common case, decided without f64).
+#[inline]
+pub fn near_unit(d: Vec3) -> bool {
+    (d.length_squared() - 1.0).abs() < 2e-6
+}
+
+/// Fast mode's rays made unit in place ([`ray`] for each), with each one's factor pushed to
+/// `lens`, which must have room for `rays.len()` of them (the caller skips this when every
+/// direction is [`near_unit`]).
+pub fn make_unit(rays: &mut [Ray], lens: &mut Vec<f32>) {
+    for r in rays.iter_mut() {
+        let (unit, len) = ray(false, r.origin.to_array(), r.dir.to_array(), r.tmin, r.tmax);
+        *r = unit;
+        lens.push(len);
+    }
+}
+
+/// `t` of the unit ray, in lengths of the given direction.
+pub fn t_back(t: f32, len: f32) -> f32 {
+    if len == 1.0 {
+        t
+    } else {
+        (f64::from(t) / f64::from(len)) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn short_and_long_directions_become_unit() {
+        let (r, len) = ray(false, [0.0; 3], [0.0, 0.0, -1e-7], 0.0, 1e9);
+        assert_eq!(r.dir, Vec3::new(0.0, 0.0, -1.0));
+        assert!((len - 1e-7).abs() < 1e-13);
+        assert!((r.tmax - 100.0).abs() < 1e-4);
+        assert!((t_back(0.5, len) - 5e6).abs() < 1.0);
+        let (r, len) = ray(false, [0.0; 3], [1e-39, 0.0, 0.0], 0.0, f32::INFINITY);
+        assert_eq!((r.dir, r.tmax), (Vec3::X, f32::INFINITY));
+        assert!(len > 0.0);
+        let (r, len) = ray(true, [0.0; 3], [0.0, 0.0, -1e-7], 0.0, 1.0);
+        assert_eq!((r.dir.z, len), (-1e-7, 1.0));
+        assert_eq!(ray(false, [0.0; 3], [0.0, 0.0, 0.0], 0.0, 1.0).1, 1.0);
+        let (r, len) = ray(false, [0.0; 3], [0.6, 0.8, 1e-8], 0.0, 1.0);
+        assert_eq!((r.dir, len), (Vec3::new(0.6, 0.8, 1e-8), 1.0));
+    }
+}
