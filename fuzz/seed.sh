@@ -24,4 +24,7 @@ cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-bloc
 # And with triangle groups (format v9), alone and with blocks.
 cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-groups.kdt --leaves groups
 cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-blocked-groups.kdt --leaves groups --layout blocked
+# And with wide nodes (format v10), with lists and with groups.
+cargo run -q -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default-wide.kdt --layout wide
+cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-wide-groups.kdt --leaves groups --layout wide
 rm -rf "$tmp"

@@ -9,7 +9,11 @@
 //! ([`Scene::without_blocks`]): the walk over the blocks, alone and 16 interleaved, must return
 //! the node walk's hits bit for bit. A scene with triangle groups (format v9) is checked the same
 //! way: its single rays test four triangles at once with the group kernels, its packets read the
-//! groups' lanes one triangle at a time, and the two must agree.
+//! groups' lanes one triangle at a time, and the two must agree. A scene with wide nodes
+//! (format v10) is traced over them and over its nodes ([`Scene::without_wide`]): in watertight
+//! mode both find the closest hit, so the `t` bits must agree (a different primitive only as a tie
+//! at that `t`); in fast mode the node walk may lose a seam ray the boxes keep, so a wide hit must
+//! be a real hit at its `t`, and any-hit must agree with closest hit.
 //!
 //! Run: `cargo +nightly fuzz run from_words fuzz/corpus/from_words` (from the repository root);
 //! the corpus starts from small valid scenes (`fuzz/seed.sh`).
@@ -35,6 +39,9 @@ fuzz_target!(|data: &[u8]| {
     };
     let rays = fan(&scene);
     kdray_fuzz::packets_agree_with_scalar(&scene, &rays);
+    if !scene.wide_nodes().is_empty() {
+        wide_agrees_with_nodes(&scene, &rays);
+    }
     if !scene.blocks().is_empty() {
         let nodes = scene.without_blocks();
         for ray in &rays {
@@ -59,6 +66,30 @@ fuzz_target!(|data: &[u8]| {
         }
     }
 });
+
+/// The wide walk's answers against the node walk's (see the module doc).
+fn wide_agrees_with_nodes(scene: &Scene, rays: &[Ray]) {
+    let nodes = scene.without_wide();
+    for ray in rays {
+        for mode in [Mode::Fast, Mode::Watertight] {
+            let wide = scene.intersect_in(mode, ray);
+            assert_eq!(scene.occluded_in(mode, ray), wide.is_hit(), "{mode:?} {ray:?}");
+            if mode == Mode::Watertight {
+                let node = nodes.intersect_in(mode, ray);
+                assert_eq!(wide.t.to_bits(), node.t.to_bits(), "{ray:?}");
+            }
+            if wide.is_hit() {
+                let own = match mode {
+                    Mode::Fast => scene.intersect_prim::<kdray_core::traverse::Mixed>(wide.prim, ray),
+                    Mode::Watertight => scene.intersect_prim::<kdray_core::traverse::Watertight<
+                        kdray_core::traverse::Mixed,
+                    >>(wide.prim, ray),
+                };
+                assert_eq!(own.map(|h| h.0.to_bits()), Some(wide.t.to_bits()), "{mode:?} {ray:?}");
+            }
+        }
+    }
+}
 
 fn bits(h: Hit) -> [u32; 4] {
     [h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()]

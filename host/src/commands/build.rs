@@ -247,7 +247,12 @@ pub fn info(file: &Path) -> Result<()> {
     );
     println!("bytes           {}", s.bytes);
     let node_bytes = scene.node_count() as usize * 8;
+    let wide_bytes = scene.wide_nodes().len() * 256;
     match scene.blocks().len() * 64 {
+        0 if wide_bytes > 0 => println!(
+            "layout          wide ({} wide nodes, {wide_bytes} bytes; {node_bytes} bytes of nodes)",
+            scene.wide_nodes().len()
+        ),
         0 => println!("layout          nodes ({node_bytes} bytes of nodes)"),
         b => println!(
             "layout          blocked ({} blocks, {b} bytes; {node_bytes} bytes of nodes, {:.3}x)",

@@ -170,10 +170,12 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         },
         u8::from(args.stream),
         in_flight_count(how.in_flight),
-        if scene.blocks().is_empty() {
-            "nodes"
-        } else {
+        if !scene.wide_nodes().is_empty() {
+            "wide"
+        } else if !scene.blocks().is_empty() {
             "blocked"
+        } else {
+            "nodes"
         },
         if scene.has_groups() { "groups" } else { "list" },
     );
