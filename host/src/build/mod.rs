@@ -8,8 +8,10 @@
 //! is kept, no re-sort); clip the straddling primitives to each child box and merge their new,
 //! freshly sorted events in. Children are built in parallel with rayon when large enough.
 
+pub mod binned;
 pub mod clip;
 pub mod events;
+pub mod fast;
 
 use crate::geometry::Geometry;
 use clip::Aabb;
@@ -43,6 +45,23 @@ pub struct BuildParams {
     /// split, for up to [`DEEP_LEVELS`] more levels ([`DEEP_LEAF_PRIMS`], or
     /// [`GROUPED_DEEP_LEAF_PRIMS`] for grouped leaves).
     pub deep_leaf_prims: usize,
+    /// Which builder makes the tree ([`Quality`]); the SAH and the rules above are the same.
+    pub quality: Quality,
+    /// The `fast` builder's settings (unused by `high`).
+    pub fast: fast::FastParams,
+}
+
+/// How hard the builder searches, as Embree's build quality: both make valid trees of the same
+/// format with the same cost model (docs/BUILD.md, "Quality").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Quality {
+    /// The exact event sweep with perfect splits at every node (Wald & Havran 2006).
+    #[default]
+    High,
+    /// Binned planes on large nodes, the exact sweep on small ones, perfect splits only near the
+    /// top ([`fast`]).
+    Fast,
 }
 
 impl Default for BuildParams {
@@ -56,11 +75,18 @@ impl Default for BuildParams {
             parallel: true,
             group: 1,
             deep_leaf_prims: DEEP_LEAF_PRIMS,
+            quality: Quality::default(),
+            fast: fast::FastParams::default(),
         }
     }
 }
 
 impl BuildParams {
+    /// These parameters built at `quality`.
+    pub fn with_quality(self, quality: Quality) -> Self {
+        Self { quality, ..self }
+    }
+
     /// The defaults for leaves stored in groups of four (docs/BUILD.md, "Triangle groups"): the
     /// SAH priced in groups, intersection cost 3 (a group test costs about three interior steps
     /// in instructions), and past the depth limit only nodes of more than
@@ -114,7 +140,7 @@ pub const DEEP_LEAF_PRIMS: usize = 8;
 pub const DEEP_LEVELS: u32 = 6;
 
 /// A built tree before flattening.
-#[derive(Debug)]
+#[derive(Debug, PartialEq)]
 pub enum BuildNode {
     /// Global primitive ids.
     Leaf(Vec<u32>),
@@ -190,6 +216,35 @@ impl Ctx<'_> {
             && depth < hard
             && (depth < soft || n > self.params.deep_leaf_prims)
             && n as f64 <= refs
+    }
+
+    /// Whether a node of `n` primitives takes its best plane `split` (pbrt-v3's rules, and the
+    /// leaf SAH for groups), and the count of bad refinements its children inherit.
+    fn accept(&self, split: Split, n: usize, bad_refines: u32) -> Option<(Split, u32)> {
+        let leaf_cost = self.costs.intersect * self.costs.tests(n);
+        let bad_refines = bad_refines + u32::from(split.cost > leaf_cost);
+        // Priced in groups, a node of at most four groups' triangles stops as soon as no split
+        // beats it (Embree's leaf SAH); pbrt's allowance of bad refines was made for
+        // per-primitive leaves.
+        let grouped_stop =
+            self.costs.group > 1 && split.cost >= leaf_cost && n <= 4 * self.costs.group;
+        if grouped_stop || (split.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= 3 {
+            return None;
+        }
+        Some((split, bad_refines))
+    }
+
+    /// A leaf over `prims` (global ids), counted as `weight` of the progress.
+    fn leaf(&self, prims: Vec<u32>, weight: u64) -> BuildNode {
+        if let Some(p) = self.progress {
+            p.fetch_add(weight, Ordering::Relaxed);
+        }
+        BuildNode::Leaf(prims)
+    }
+
+    /// The bounds of primitive `id`'s part inside `bounds` (exact for triangles), or `None`.
+    fn clip(&self, id: u32, bounds: &Aabb) -> Option<Aabb> {
+        self.prims.clip(id, bounds)
     }
 }
 
@@ -268,6 +323,21 @@ pub fn build(
             },
         });
     }
+    let live_count = live.len();
+    let share = Share {
+        weight: PROGRESS_TOTAL,
+        refs: REFERENCE_BUDGET * live_count as f64,
+    };
+    if params.quality == Quality::Fast {
+        let refs = live
+            .iter()
+            .zip(&boxes)
+            .map(|(&id, &bounds)| fast::Ref { id, bounds })
+            .collect();
+        drop((live, boxes));
+        let root = fast::build_node(&ctx, refs, bounds, 0, 0, share);
+        return Ok(Tree { root, bounds });
+    }
     let events: [Vec<Event>; 3] = core::array::from_fn(|axis| {
         let mut list = Vec::with_capacity(2 * boxes.len());
         for (local, b) in boxes.iter().enumerate() {
@@ -277,11 +347,6 @@ pub fn build(
         list
     });
     drop(boxes);
-    let live_count = live.len();
-    let share = Share {
-        weight: PROGRESS_TOTAL,
-        refs: REFERENCE_BUDGET * live_count as f64,
-    };
     let root = build_node(&ctx, live, events, bounds, 0, 0, share);
     Ok(Tree { root, bounds })
 }
@@ -293,13 +358,6 @@ const ABOVE: u8 = 2;
 
 /// Below this many primitives children are built on the current thread.
 const PARALLEL_MIN: usize = 2048;
-
-fn make_leaf(ctx: &Ctx, prims: Vec<u32>, weight: u64) -> BuildNode {
-    if let Some(p) = ctx.progress {
-        p.fetch_add(weight, Ordering::Relaxed);
-    }
-    BuildNode::Leaf(prims)
-}
 
 /// Builds the subtree over `prims` (global ids; position = local id) whose events are `events`.
 fn build_node(
@@ -314,22 +372,14 @@ fn build_node(
     let n = prims.len();
     let weight = share.weight;
     if !ctx.may_split(depth, n, share.refs) {
-        return make_leaf(ctx, prims, weight);
+        return ctx.leaf(prims, weight);
     }
     let best = (0..3)
         .filter_map(|axis| events::best_split_on_axis(&events[axis], n, &bounds, axis, &ctx.costs))
         .min_by(|a, b| a.cost.total_cmp(&b.cost));
-    let leaf_cost = ctx.costs.intersect * ctx.costs.tests(n);
-    let Some(split) = best else {
-        return make_leaf(ctx, prims, weight);
+    let Some((split, bad_refines)) = best.and_then(|s| ctx.accept(s, n, bad_refines)) else {
+        return ctx.leaf(prims, weight);
     };
-    let bad_refines = bad_refines + u32::from(split.cost > leaf_cost);
-    // Priced in groups, a node of at most four groups' triangles stops as soon as no split beats
-    // it (Embree's leaf SAH); pbrt's allowance of bad refines was made for per-primitive leaves.
-    let grouped_stop = ctx.costs.group > 1 && split.cost >= leaf_cost && n <= 4 * ctx.costs.group;
-    if grouped_stop || (split.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= 3 {
-        return make_leaf(ctx, prims, weight);
-    }
     let (below_box, above_box) = bounds.split(split.axis, split.pos);
     let cut = Cut {
         split,
@@ -490,7 +540,7 @@ fn partition_with(
     for (local, &p) in side.iter().enumerate() {
         if p == BOTH {
             let id = prims[local];
-            let (b, a) = (ctx.prims.clip(id, below_box), ctx.prims.clip(id, above_box));
+            let (b, a) = (ctx.clip(id, below_box), ctx.clip(id, above_box));
             // Rounding can in principle empty both: keep the primitive, conservatively, below.
             let b = if b.is_none() && a.is_none() {
                 Some(*below_box)

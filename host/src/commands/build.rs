@@ -3,7 +3,7 @@
 use super::with_progress;
 use core::sync::atomic::{AtomicU64, Ordering};
 use indicatif::{ProgressBar, ProgressStyle};
-use kdray::build::{BuildParams, PROGRESS_TOTAL};
+use kdray::build::{BuildParams, PROGRESS_TOTAL, Quality};
 use kdray::error::{Error, Result};
 use kdray::{Geometry, files, flat, input, load};
 use kdray_core::Scene;
@@ -39,6 +39,11 @@ pub struct BuildArgs {
     /// priced in groups; triangles-only scenes; format v9).
     #[arg(long, value_enum, default_value_t = flat::Leaves::default())]
     pub leaves: flat::Leaves,
+    /// How hard the builder searches: `high` (the exact sweep and perfect splits at every node)
+    /// or `fast` (binned planes on large nodes, perfect splits only near the top; a few times
+    /// faster, a somewhat slower tree: docs/BUILD.md, "Quality"). Same format either way.
+    #[arg(long, value_enum, default_value_t = Quality::default())]
+    pub quality: Quality,
 }
 
 impl Default for BuildArgs {
@@ -52,6 +57,7 @@ impl Default for BuildArgs {
             serial_build: !p.parallel,
             layout: flat::Layout::default(),
             leaves: flat::Leaves::default(),
+            quality: p.quality,
         }
     }
 }
@@ -65,7 +71,7 @@ impl BuildArgs {
             empty_bonus: self.empty_bonus,
             max_depth: self.max_depth,
             parallel: !self.serial_build,
-            ..base
+            ..base.with_quality(self.quality)
         }
     }
 }
