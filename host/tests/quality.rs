@@ -180,6 +180,47 @@ fn every_quality_builds_the_meshes_into_trees_that_hit_as_brute_force() {
     }
 }
 
+#[test]
+fn fast_without_binning_and_with_perfect_splits_is_the_high_tree() {
+    // The two builders share the SAH and the rules; only the search and the clipping differ.
+    let geom = mesh("scenes/meshes/bunny.ply.gz");
+    let high = BuildParams {
+        parallel: false,
+        ..BuildParams::default()
+    };
+    let exact_fast = BuildParams {
+        fast: FastParams {
+            bin_min: usize::MAX,
+            clip_min: 0,
+            ..FastParams::default()
+        },
+        ..high.with_quality(Quality::Fast)
+    };
+    // The event builder lists a leaf's straddlers last, the fast one in its parent's order.
+    fn sorted(node: BuildNode) -> BuildNode {
+        match node {
+            BuildNode::Leaf(mut ids) => {
+                ids.sort_unstable();
+                BuildNode::Leaf(ids)
+            }
+            BuildNode::Interior {
+                axis,
+                split,
+                children,
+            } => {
+                let [b, a] = *children;
+                BuildNode::Interior {
+                    axis,
+                    split,
+                    children: Box::new([sorted(b), sorted(a)]),
+                }
+            }
+        }
+    }
+    let tree = |p: &BuildParams| sorted(build(&geom, p, None).unwrap().root);
+    assert!(tree(&high) == tree(&exact_fast));
+}
+
 /// Scenes that put the binning at its edges.
 fn edge_cases() -> Vec<(&'static str, Geometry)> {
     let tri = |o: Vec3, s: f32| [o, o + Vec3::new(s, 0.0, 0.0), o + Vec3::new(0.0, s, s)];

@@ -34,6 +34,24 @@ impl Event {
     }
 }
 
+impl Event {
+    /// The event of primitive `prim` whose [`Event::key`] is `key`.
+    #[inline]
+    pub fn from_key(key: u64, prim: u32) -> Event {
+        let ordered = (key >> 2) as u32;
+        let bits = if ordered & 0x8000_0000 != 0 {
+            ordered & 0x7fff_ffff
+        } else {
+            !ordered
+        };
+        Event {
+            pos: f32::from_bits(bits),
+            prim,
+            kind: (key & 3) as u8,
+        }
+    }
+}
+
 /// Appends the events of `prim`'s box on `axis`.
 #[inline]
 pub fn push_events(out: &mut Vec<Event>, b: &Aabb, axis: usize, prim: u32) {
@@ -196,4 +214,21 @@ pub fn best_split_on_axis(
         nb += starts + planars;
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_key_gives_back_its_event() {
+        for pos in [0.0, -0.0, 1.5, -1.5, f32::MIN_POSITIVE, -3e38, 3e38, 1e-42] {
+            for kind in [END, PLANAR, START] {
+                let e = Event { pos, prim: 7, kind };
+                let back = Event::from_key(e.key(), 7);
+                assert_eq!(back.pos.to_bits(), pos.to_bits());
+                assert_eq!(back.kind, kind);
+            }
+        }
+    }
 }

@@ -177,7 +177,11 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
         Some(file) => file.geometry()?,
         None => input::load_input(input)?,
     };
+    reset_peak_resident();
     let (words, build_ms) = build_words(input, &geom, &args.params(), args.layout, args.leaves)?;
+    let peak = peak_resident()
+        .map(|b| format!(", peak_mib={}", b.div_ceil(1 << 20)))
+        .unwrap_or_default();
     let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
     // Both outputs are made, then staged, before either is put in place: a description that
     // fails leaves no tree behind, and the tree appears only with its description.
@@ -195,7 +199,7 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
     files::commit_all(staged)?;
     let desc = desc.map(|(path, d)| (path, d.len()));
     println!(
-        "wrote {}: {} triangles, {} spheres, {} nodes, {} bytes, build_ms={build_ms:.1}",
+        "wrote {}: {} triangles, {} spheres, {} nodes, {} bytes, build_ms={build_ms:.1}{peak}",
         out.display(),
         scene.tri_count(),
         scene.sphere_count(),
@@ -206,6 +210,22 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
         println!("wrote {}: render description, {len} words", path.display());
     }
     Ok(())
+}
+
+/// Starts the process's peak resident size over from its present size (Linux: `clear_refs`
+/// value 5; elsewhere nothing), so that [`peak_resident`] measures what follows.
+fn reset_peak_resident() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// The process's peak resident size in bytes since [`reset_peak_resident`] (Linux `VmHWM`), or
+/// `None` where the system does not say. A build's peak: the geometry, which was resident
+/// before, and the builder's, serializer's and validator's memory at their largest.
+fn peak_resident() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 pub fn info(file: &Path) -> Result<()> {
