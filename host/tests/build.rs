@@ -3,7 +3,9 @@
 //! `max_depth` is a hard limit.
 
 use glam::Vec3;
-use kdray::build::{BuildNode, BuildParams, DEEP_LEAF_PRIMS, DEEP_LEVELS, REFERENCE_BUDGET, build};
+use kdray::build::{
+    BuildNode, BuildParams, DEEP_LEAF_PRIMS, DEEP_LEVELS, Quality, REFERENCE_BUDGET, build,
+};
 use kdray::geometry::Geometry;
 use std::collections::BTreeSet;
 
@@ -134,21 +136,27 @@ fn a_soup_of_crossing_triangles_stays_within_the_reference_budget() {
         triangles,
         ..Geometry::default()
     };
-    let serial = BuildParams {
-        parallel: false,
-        ..BuildParams::default()
-    };
-    let tree = build(&geom, &serial, None).unwrap();
-    let refs = references(&tree.root);
-    // 2 · REFERENCE_BUDGET per triangle; without the budget this soup makes 4.3 M references.
-    let bound = 64 * n;
-    const { assert!(REFERENCE_BUDGET == 32.0) };
-    assert!(
-        refs <= bound,
-        "{refs} references for {n} triangles (bound {bound})"
-    );
-    // Still a tree that splits: the soup's references far exceed its triangles.
-    assert!(refs > 8 * n, "{refs} references for {n} triangles");
-    let parallel = build(&geom, &BuildParams::default(), None).unwrap();
-    assert_eq!(format!("{:?}", tree.root), format!("{:?}", parallel.root));
+    for quality in [Quality::High, Quality::Fast] {
+        let params = BuildParams::default().with_quality(quality);
+        let serial = BuildParams {
+            parallel: false,
+            ..params
+        };
+        let tree = build(&geom, &serial, None).unwrap();
+        let refs = references(&tree.root);
+        // 2 · REFERENCE_BUDGET per triangle; without the budget this soup makes 4.3 M references.
+        let bound = 64 * n;
+        const { assert!(REFERENCE_BUDGET == 32.0) };
+        assert!(
+            refs <= bound,
+            "{quality:?}: {refs} references for {n} triangles (bound {bound})"
+        );
+        // Still a tree that splits: the soup's references far exceed its triangles.
+        assert!(
+            refs > 8 * n,
+            "{quality:?}: {refs} references for {n} triangles"
+        );
+        let parallel = build(&geom, &params, None).unwrap();
+        assert!(tree.root == parallel.root, "{quality:?}");
+    }
 }
