@@ -9,35 +9,12 @@ use kdray::build::{
 use kdray::geometry::Geometry;
 use std::collections::BTreeSet;
 
-/// A UV sphere of `n × n` quads: its poles are fans of thin triangles sharing one vertex, a dense
-/// spot that the cost model wants to split past pbrt-v3's depth limit.
+mod meshes;
+
+/// [`meshes::uv_sphere`] of `n × n` quads as geometry.
 fn uv_sphere(n: u32) -> Geometry {
-    let point = |i: u32, j: u32| {
-        let (theta, phi) = (
-            core::f32::consts::PI * i as f32 / n as f32,
-            core::f32::consts::TAU * j as f32 / n as f32,
-        );
-        Vec3::new(
-            theta.sin() * phi.cos(),
-            theta.sin() * phi.sin(),
-            theta.cos(),
-        )
-    };
-    let mut triangles = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            let (a, b, c, d) = (
-                point(i, j),
-                point(i + 1, j),
-                point(i + 1, j + 1),
-                point(i, j + 1),
-            );
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-        }
-    }
     Geometry {
-        triangles,
+        triangles: meshes::uv_sphere(n, Vec3::ZERO, 1.0),
         ..Geometry::default()
     }
 }

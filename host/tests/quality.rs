@@ -13,6 +13,9 @@ use kdray_core::traverse::{Mixed, Mode, Watertight};
 use kdray_core::{Hit, Ray, Scene};
 use std::path::Path;
 
+mod meshes;
+use meshes::uv_sphere;
+
 /// `fast` with every node binned (and never clipped exactly), so that the small test scenes go
 /// through the binned search at every level.
 fn binned_everywhere(bins: usize) -> BuildParams {
@@ -140,30 +143,6 @@ fn geometry(triangles: Vec<[Vec3; 3]>) -> Geometry {
 
 fn mesh(file: &str) -> Geometry {
     load_input(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file)).unwrap()
-}
-
-/// A UV sphere of `n × n` quads (dense, thin triangles at the poles).
-fn uv_sphere(n: u32, center: Vec3, radius: f32) -> Vec<[Vec3; 3]> {
-    let point = |i: u32, j: u32| {
-        let (t, p) = (
-            core::f32::consts::PI * i as f32 / n as f32,
-            core::f32::consts::TAU * j as f32 / n as f32,
-        );
-        center + radius * Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
-    };
-    let mut out = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            let (a, b, c, d) = (
-                point(i, j),
-                point(i + 1, j),
-                point(i + 1, j + 1),
-                point(i, j + 1),
-            );
-            out.extend([[a, b, c], [a, c, d]]);
-        }
-    }
-    out
 }
 
 #[test]
