@@ -1,5 +1,5 @@
 //! Both build qualities (`high`: the exact event sweep; `fast`: binned planes, the exact sweep on
-//! small nodes, perfect splits near the top) on the repository's meshes and on the binning's edge
+//! small nodes) on the repository's meshes and on the binning's edge
 //! cases: every tree validates and hits what brute force over all triangles hits, and a build
 //! gives the same tree whatever the number of threads.
 

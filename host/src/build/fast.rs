@@ -5,14 +5,15 @@
 //! Per node: a node of at least [`BIN_MIN`] references finds its plane by binning
 //! ([`super::binned`], [`BINS`] bins per axis); a smaller one sorts its boxes' events and sweeps
 //! them exactly ([`events::best_split_on_axis`]). The partition compares each box with the plane;
-//! a straddling primitive is clipped exactly to each child ([`Ctx::clip`]: perfect splits) in
-//! nodes of at least [`CLIP_MIN`] references, and below that keeps its box cut by the plane, which
-//! costs nothing but is looser. Children are built in parallel like the event builder's, and the
-//! tree depends on nothing but the input and the parameters.
+//! a straddling primitive is clipped exactly to each child (perfect splits, [`super::clip`]) in
+//! nodes of at least [`FastParams::clip_min`] references, and below that keeps its box cut by the
+//! plane, which costs nothing but is looser (measured: it does not pay, so the default clips
+//! everywhere). Children are built in parallel like the event builder's, and the tree depends on
+//! nothing but the input and the parameters.
 //!
-//! Where the time goes instead: the event builder clips every straddler in f64 and splits three
-//! event lists at every level, some 20–30 levels for each triangle; here a deep node costs a pass
-//! over its boxes (docs/BUILD.md, "Quality").
+//! What it saves: the event builder splits three event lists at every level, some 20–30 levels
+//! for each triangle; here a large node costs a pass over its boxes, a small one three sorts of
+//! its events' keys (docs/BUILD.md, "Quality").
 
 use super::clip::Aabb;
 use super::events::{self, Event, Split};
