@@ -3,39 +3,18 @@
 //! `max_depth` is a hard limit.
 
 use glam::Vec3;
-use kdray::build::{BuildNode, BuildParams, DEEP_LEAF_PRIMS, DEEP_LEVELS, REFERENCE_BUDGET, build};
+use kdray::build::{
+    BuildNode, BuildParams, DEEP_LEAF_PRIMS, DEEP_LEVELS, Quality, REFERENCE_BUDGET, build,
+};
 use kdray::geometry::Geometry;
 use std::collections::BTreeSet;
 
-/// A UV sphere of `n × n` quads: its poles are fans of thin triangles sharing one vertex, a dense
-/// spot that the cost model wants to split past pbrt-v3's depth limit.
+mod meshes;
+
+/// [`meshes::uv_sphere`] of `n × n` quads as geometry.
 fn uv_sphere(n: u32) -> Geometry {
-    let point = |i: u32, j: u32| {
-        let (theta, phi) = (
-            core::f32::consts::PI * i as f32 / n as f32,
-            core::f32::consts::TAU * j as f32 / n as f32,
-        );
-        Vec3::new(
-            theta.sin() * phi.cos(),
-            theta.sin() * phi.sin(),
-            theta.cos(),
-        )
-    };
-    let mut triangles = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            let (a, b, c, d) = (
-                point(i, j),
-                point(i + 1, j),
-                point(i + 1, j + 1),
-                point(i, j + 1),
-            );
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-        }
-    }
     Geometry {
-        triangles,
+        triangles: meshes::uv_sphere(n, Vec3::ZERO, 1.0),
         ..Geometry::default()
     }
 }
@@ -134,21 +113,27 @@ fn a_soup_of_crossing_triangles_stays_within_the_reference_budget() {
         triangles,
         ..Geometry::default()
     };
-    let serial = BuildParams {
-        parallel: false,
-        ..BuildParams::default()
-    };
-    let tree = build(&geom, &serial, None).unwrap();
-    let refs = references(&tree.root);
-    // 2 · REFERENCE_BUDGET per triangle; without the budget this soup makes 4.3 M references.
-    let bound = 64 * n;
-    const { assert!(REFERENCE_BUDGET == 32.0) };
-    assert!(
-        refs <= bound,
-        "{refs} references for {n} triangles (bound {bound})"
-    );
-    // Still a tree that splits: the soup's references far exceed its triangles.
-    assert!(refs > 8 * n, "{refs} references for {n} triangles");
-    let parallel = build(&geom, &BuildParams::default(), None).unwrap();
-    assert_eq!(format!("{:?}", tree.root), format!("{:?}", parallel.root));
+    for quality in [Quality::High, Quality::Fast] {
+        let params = BuildParams::default().with_quality(quality);
+        let serial = BuildParams {
+            parallel: false,
+            ..params
+        };
+        let tree = build(&geom, &serial, None).unwrap();
+        let refs = references(&tree.root);
+        // 2 · REFERENCE_BUDGET per triangle; without the budget this soup makes 4.3 M references.
+        let bound = 64 * n;
+        const { assert!(REFERENCE_BUDGET == 32.0) };
+        assert!(
+            refs <= bound,
+            "{quality:?}: {refs} references for {n} triangles (bound {bound})"
+        );
+        // Still a tree that splits: the soup's references far exceed its triangles.
+        assert!(
+            refs > 8 * n,
+            "{quality:?}: {refs} references for {n} triangles"
+        );
+        let parallel = build(&geom, &params, None).unwrap();
+        assert!(tree.root == parallel.root, "{quality:?}");
+    }
 }

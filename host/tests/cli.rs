@@ -336,6 +336,39 @@ fn bad_inputs_exit_1_and_name_the_file() {
 }
 
 #[test]
+fn both_build_qualities_write_trees_and_report_the_peak_memory() {
+    let d = dir("quality");
+    let mesh = d.join("grid.tri");
+    // A 20 x 20 grid of unit triangles in z = 0, and the same one at z = 1.
+    let tris: Vec<[f32; 9]> = (0..800)
+        .map(|i| {
+            let (x, y, z) = ((i % 20) as f32, ((i / 20) % 20) as f32, (i / 400) as f32);
+            [x, y, z, x + 1.0, y, z, x, y + 1.0, z]
+        })
+        .collect();
+    tri_file(&mesh, &tris);
+    for quality in ["high", "fast"] {
+        let kdt = d.join(format!("{quality}.kdt"));
+        let out = kdray(&["build", s(&mesh), "-o", s(&kdt), "--quality", quality]);
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(text.contains("800 triangles"), "{text}");
+        if cfg!(target_os = "linux") {
+            assert!(text.contains("peak_mib="), "{text}");
+        }
+        assert!(kdray(&["info", s(&kdt)]).status.success());
+    }
+    let out = kdray(&["build", s(&mesh), "-o", "x.kdt", "--quality", "medium"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("medium") && err.contains("fast"), "{err}");
+}
+
+#[test]
 fn usage_errors_exit_2() {
     assert_eq!(kdray(&[]).status.code(), Some(2));
     assert_eq!(kdray(&["build"]).status.code(), Some(2));

@@ -4,7 +4,8 @@
 //! common), degenerate triangles, spheres, and axis-parallel directions with ±0 components.
 
 use glam::Vec3;
-use kdray::build::{BuildParams, build};
+use kdray::build::fast::FastParams;
+use kdray::build::{BuildParams, Quality, build};
 use kdray::flat::serialize;
 use kdray_core::traverse::{Contents, Mixed, Mode, Watertight};
 use kdray_core::{Hit, Ray, Scene};
@@ -14,11 +15,28 @@ use proptest::test_runner::TestCaseError;
 
 fn params() -> impl Strategy<Value = BuildParams> {
     // Cheap traversal makes deep trees with many straddling primitives; 80/1 is the default.
-    prop_oneof![Just(80.0), Just(2.0), Just(20.0)].prop_map(|isect| BuildParams {
-        intersect_cost: isect,
-        parallel: false,
-        ..BuildParams::default()
-    })
+    // Both qualities; `fast` also with every node binned into 2–40 bins (the grid scenes are
+    // smaller than its binning threshold) and with boxes cut by the cell instead of clipped.
+    let fast = prop_oneof![
+        Just(None),
+        (2usize..40, any::<bool>()).prop_map(|(bins, cut)| Some(FastParams {
+            bins,
+            bin_min: 0,
+            clip_min: if cut { usize::MAX } else { 0 },
+        })),
+    ];
+    let quality = prop_oneof![Just(Quality::High), Just(Quality::Fast)];
+    (
+        prop_oneof![Just(80.0), Just(2.0), Just(20.0)],
+        quality,
+        fast,
+    )
+        .prop_map(|(isect, quality, fast)| BuildParams {
+            intersect_cost: isect,
+            parallel: false,
+            fast: fast.unwrap_or_default(),
+            ..BuildParams::default().with_quality(quality)
+        })
 }
 
 /// The closest hit by testing every primitive with `C`'s kernels.

@@ -94,11 +94,22 @@ pub fn clip_triangle(tri: &[Vec3; 3], bounds: &Aabb) -> Option<Aabb> {
         *dst = src.as_dvec3();
     }
     let mut n = 3;
+    // A plane the whole triangle is inside of leaves the polygon as it is: skip it (deep in the
+    // tree a triangle crosses one or two of the cell's planes).
+    let whole = Aabb::around(tri);
     for axis in 0..3 {
         for (limit, keep_below) in [
             (bounds.min[axis] as f64, false),
             (bounds.max[axis] as f64, true),
         ] {
+            let crosses = if keep_below {
+                whole.max[axis] as f64 > limit
+            } else {
+                (whole.min[axis] as f64) < limit
+            };
+            if !crosses {
+                continue;
+            }
             let inside = |p: &DVec3| {
                 if keep_below {
                     p[axis] <= limit

@@ -34,6 +34,24 @@ impl Event {
     }
 }
 
+impl Event {
+    /// The event of primitive `prim` whose [`Event::key`] is `key`.
+    #[inline]
+    pub fn from_key(key: u64, prim: u32) -> Event {
+        let ordered = (key >> 2) as u32;
+        let bits = if ordered & 0x8000_0000 != 0 {
+            ordered & 0x7fff_ffff
+        } else {
+            !ordered
+        };
+        Event {
+            pos: f32::from_bits(bits),
+            prim,
+            kind: (key & 3) as u8,
+        }
+    }
+}
+
 /// Appends the events of `prim`'s box on `axis`.
 #[inline]
 pub fn push_events(out: &mut Vec<Event>, b: &Aabb, axis: usize, prim: u32) {
@@ -95,6 +113,60 @@ pub struct Split {
     pub planar_below: bool,
 }
 
+/// The SAH cost of planes on one axis of a node's box:
+/// `Kt + Ki·(1 − bonus)·(P_b·⌈n_b/g⌉ + P_a·⌈n_a/g⌉)` (g = 1: pbrt's), the bonus applying when a
+/// side is empty (pbrt-v3 §4.4.2, after MacDonald & Booth 1990). With `a`, `b` the box's other two
+/// extents, a child's area is `2(ab + (a + b)·length)`. Both split searches (the event sweep and
+/// the binned one, [`super::binned`]) price planes here, so another node or leaf cost (wide
+/// nodes, groups) changes both.
+pub struct AxisSah {
+    cap: f64,
+    side: f64,
+    pub lo: f32,
+    pub hi: f32,
+    costs: Costs,
+}
+
+impl AxisSah {
+    /// `None` when the box has no area (no plane can be priced).
+    pub fn new(bounds: &Aabb, axis: usize, costs: &Costs) -> Option<Self> {
+        let inv_area = 1.0 / bounds.area();
+        if !inv_area.is_finite() {
+            return None;
+        }
+        let d = (bounds.max - bounds.min).as_dvec3();
+        let (a, b) = (d[(axis + 1) % 3], d[(axis + 2) % 3]);
+        Some(Self {
+            cap: 2.0 * a * b * inv_area,
+            side: 2.0 * (a + b) * inv_area,
+            lo: bounds.min[axis],
+            hi: bounds.max[axis],
+            costs: *costs,
+        })
+    }
+
+    /// Whether `pos` is strictly inside the box on this axis (a plane that splits something).
+    #[inline]
+    pub fn inside(&self, pos: f32) -> bool {
+        pos > self.lo && pos < self.hi
+    }
+
+    /// The cost of the plane at `pos` with `nb` primitives below and `na` above.
+    #[inline]
+    pub fn cost(&self, pos: f32, nb: usize, na: usize) -> f64 {
+        let pos = pos as f64;
+        let pb = self.cap + self.side * (pos - self.lo as f64);
+        let pa = self.cap + self.side * (self.hi as f64 - pos);
+        let c = &self.costs;
+        let bonus = if nb == 0 || na == 0 {
+            c.empty_bonus
+        } else {
+            0.0
+        };
+        c.traversal + c.intersect * (1.0 - bonus) * (pb * c.tests(nb) + pa * c.tests(na))
+    }
+}
+
 /// One sweep over a sorted event list of `axis`: the best split strictly inside `bounds`.
 pub fn best_split_on_axis(
     events: &[Event],
@@ -103,29 +175,7 @@ pub fn best_split_on_axis(
     axis: usize,
     costs: &Costs,
 ) -> Option<Split> {
-    let inv_area = 1.0 / bounds.area();
-    if !inv_area.is_finite() {
-        return None;
-    }
-    let (lo, hi) = (bounds.min[axis], bounds.max[axis]);
-    // The SAH cost `Kt + Ki·(1 − bonus)·(P_b·⌈n_b/g⌉ + P_a·⌈n_a/g⌉)` (g = 1: pbrt's), the bonus applying when a side is
-    // empty (pbrt-v3 §4.4.2, after MacDonald & Booth 1990). With `a`, `b` the box's other two
-    // extents, a child's area is `2(ab + (a + b)·length)`.
-    let d = (bounds.max - bounds.min).as_dvec3();
-    let (a, b) = (d[(axis + 1) % 3], d[(axis + 2) % 3]);
-    let (cap, side) = (2.0 * a * b * inv_area, 2.0 * (a + b) * inv_area);
-    let (lo64, hi64) = (lo as f64, hi as f64);
-    let sah = |pos: f64, nb: usize, na: usize| {
-        let pb = cap + side * (pos - lo64);
-        let pa = cap + side * (hi64 - pos);
-        let bonus = if nb == 0 || na == 0 {
-            costs.empty_bonus
-        } else {
-            0.0
-        };
-        costs.traversal
-            + costs.intersect * (1.0 - bonus) * (pb * costs.tests(nb) + pa * costs.tests(na))
-    };
+    let sah = AxisSah::new(bounds, axis, costs)?;
     let mut best: Option<Split> = None;
     let (mut nb, mut na) = (0usize, n);
     let mut i = 0;
@@ -140,12 +190,12 @@ pub fn best_split_on_axis(
         }
         let [ends, planars, starts] = counts;
         na -= ends + planars;
-        if pos > lo && pos < hi {
-            let below = sah(pos as f64, nb + planars, na);
+        if sah.inside(pos) {
+            let below = sah.cost(pos, nb + planars, na);
             let (cost, planar_below) = if planars == 0 {
                 (below, true)
             } else {
-                let above = sah(pos as f64, nb, na + planars);
+                let above = sah.cost(pos, nb, na + planars);
                 if below <= above {
                     (below, true)
                 } else {
@@ -164,4 +214,21 @@ pub fn best_split_on_axis(
         nb += starts + planars;
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_key_gives_back_its_event() {
+        for pos in [0.0, -0.0, 1.5, -1.5, f32::MIN_POSITIVE, -3e38, 3e38, 1e-42] {
+            for kind in [END, PLANAR, START] {
+                let e = Event { pos, prim: 7, kind };
+                let back = Event::from_key(e.key(), 7);
+                assert_eq!(back.pos.to_bits(), pos.to_bits());
+                assert_eq!(back.kind, kind);
+            }
+        }
+    }
 }

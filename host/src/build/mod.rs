@@ -7,9 +7,19 @@
 //! by one pass over the winning axis' events; split each axis' list by that classification (order
 //! is kept, no re-sort); clip the straddling primitives to each child box and merge their new,
 //! freshly sorted events in. Children are built in parallel with rayon when large enough.
+//!
+//! That is [`Quality::High`]. [`Quality::Fast`] ([`fast`]) makes the same kind of tree with the
+//! same costs and rules from a list of clipped boxes per node, binning the planes of large nodes
+//! ([`binned`]). Both price planes with [`events::AxisSah`], where the node and leaf costs are
+//! ([`BuildParams`]'s costs and group size).
 
+pub mod binned;
 pub mod clip;
 pub mod events;
+pub mod fast;
+mod params;
+
+pub use params::*;
 
 use crate::geometry::Geometry;
 use clip::Aabb;
@@ -18,103 +28,8 @@ use events::{Costs, Event, Split};
 use glam::Vec3;
 use kdray_core::Triangle;
 
-/// Builder parameters. The defaults are pbrt-v3's, except where measurement chose otherwise
-/// (see `docs/BUILD.md`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BuildParams {
-    /// Cost of one traversal step, relative to `intersect_cost`.
-    pub traversal_cost: f64,
-    /// Cost of one primitive test.
-    pub intersect_cost: f64,
-    /// Fraction of the cost saved when a split cuts off empty space.
-    pub empty_bonus: f64,
-    /// A node with at most this many primitives becomes a leaf.
-    pub max_prims: usize,
-    /// Depth limit; `None` is `8 + 1.3·log2(N)` rounded (pbrt-v3), where a node holding more than
-    /// [`BuildParams::deep_leaf_prims`] primitives may still split for [`DEEP_LEVELS`] more levels. Both are
-    /// capped by the core's stack. An explicit limit is a hard one.
-    pub max_depth: Option<u32>,
-    /// Build subtrees on the rayon pool (with the `cli` feature; one thread without it).
-    pub parallel: bool,
-    /// Primitives one leaf test takes: 1, or 4 for leaves stored in triangle groups
-    /// (`kdray::flat::Leaves::Groups`), which the SAH then prices in groups.
-    pub group: usize,
-    /// Past the automatic depth limit, a node holding more than this many primitives may still
-    /// split, for up to [`DEEP_LEVELS`] more levels ([`DEEP_LEAF_PRIMS`], or
-    /// [`GROUPED_DEEP_LEAF_PRIMS`] for grouped leaves).
-    pub deep_leaf_prims: usize,
-}
-
-impl Default for BuildParams {
-    fn default() -> Self {
-        Self {
-            traversal_cost: 1.0,
-            intersect_cost: 80.0,
-            empty_bonus: 0.5,
-            max_prims: 1,
-            max_depth: None,
-            parallel: true,
-            group: 1,
-            deep_leaf_prims: DEEP_LEAF_PRIMS,
-        }
-    }
-}
-
-impl BuildParams {
-    /// The defaults for leaves stored in groups of four (docs/BUILD.md, "Triangle groups"): the
-    /// SAH priced in groups, intersection cost 3 (a group test costs about three interior steps
-    /// in instructions), and past the depth limit only nodes of more than
-    /// [`GROUPED_DEEP_LEAF_PRIMS`] split.
-    pub fn grouped() -> Self {
-        Self {
-            intersect_cost: GROUPED_INTERSECT_COST,
-            group: kdray_core::group::WIDTH,
-            deep_leaf_prims: GROUPED_DEEP_LEAF_PRIMS,
-            ..Self::default()
-        }
-    }
-}
-
-/// [`BuildParams::grouped`]'s intersection cost.
-pub const GROUPED_INTERSECT_COST: f64 = 3.0;
-/// [`BuildParams::grouped`]'s [`BuildParams::deep_leaf_prims`].
-pub const GROUPED_DEEP_LEAF_PRIMS: usize = 32;
-
-impl BuildParams {
-    /// The depth limits for `n` primitives: `(soft, hard)`. Past `soft` only nodes holding more
-    /// than [`BuildParams::deep_leaf_prims`] primitives split; at `hard` none does.
-    pub fn depth_limits(&self, n: usize) -> (u32, u32) {
-        let cap = kdray_core::format::MAX_DEPTH as u32;
-        match self.max_depth {
-            Some(d) => (d.min(cap), d.min(cap)),
-            None => {
-                let auto = (8.0 + 1.3 * (n.max(1) as f64).log2()).round() as u32;
-                (auto.min(cap), (auto + DEEP_LEVELS).min(cap))
-            }
-        }
-    }
-
-    fn costs(&self) -> Costs {
-        Costs {
-            traversal: self.traversal_cost,
-            intersect: self.intersect_cost,
-            empty_bonus: self.empty_bonus,
-            group: self.group.max(1),
-        }
-    }
-}
-
-/// Past the automatic depth limit, a node holding more than this many primitives may still split
-/// (by the same cost rules), for up to [`DEEP_LEVELS`] more levels. pbrt-v3's limit alone leaves
-/// the dragon's densest regions in leaves of 10–160 triangles, where both walks spend their time;
-/// letting only those continue costs 28 % more nodes (5 % more bytes) and makes single rays
-/// 20–30 % faster, 8-wide packets about as fast (docs/BUILD.md).
-pub const DEEP_LEAF_PRIMS: usize = 8;
-/// See [`DEEP_LEAF_PRIMS`].
-pub const DEEP_LEVELS: u32 = 6;
-
 /// A built tree before flattening.
-#[derive(Debug)]
+#[derive(Debug, PartialEq)]
 pub enum BuildNode {
     /// Global primitive ids.
     Leaf(Vec<u32>),
@@ -190,6 +105,35 @@ impl Ctx<'_> {
             && depth < hard
             && (depth < soft || n > self.params.deep_leaf_prims)
             && n as f64 <= refs
+    }
+
+    /// Whether a node of `n` primitives takes its best plane `split` (pbrt-v3's rules, and the
+    /// leaf SAH for groups), and the count of bad refinements its children inherit.
+    fn accept(&self, split: Split, n: usize, bad_refines: u32) -> Option<(Split, u32)> {
+        let leaf_cost = self.costs.intersect * self.costs.tests(n);
+        let bad_refines = bad_refines + u32::from(split.cost > leaf_cost);
+        // Priced in groups, a node of at most four groups' triangles stops as soon as no split
+        // beats it (Embree's leaf SAH); pbrt's allowance of bad refines was made for
+        // per-primitive leaves.
+        let grouped_stop =
+            self.costs.group > 1 && split.cost >= leaf_cost && n <= 4 * self.costs.group;
+        if grouped_stop || (split.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= 3 {
+            return None;
+        }
+        Some((split, bad_refines))
+    }
+
+    /// A leaf over `prims` (global ids), counted as `weight` of the progress.
+    fn leaf(&self, prims: Vec<u32>, weight: u64) -> BuildNode {
+        if let Some(p) = self.progress {
+            p.fetch_add(weight, Ordering::Relaxed);
+        }
+        BuildNode::Leaf(prims)
+    }
+
+    /// The bounds of primitive `id`'s part inside `bounds` (exact for triangles), or `None`.
+    fn clip(&self, id: u32, bounds: &Aabb) -> Option<Aabb> {
+        self.prims.clip(id, bounds)
     }
 }
 
@@ -268,6 +212,21 @@ pub fn build(
             },
         });
     }
+    let live_count = live.len();
+    let share = Share {
+        weight: PROGRESS_TOTAL,
+        refs: REFERENCE_BUDGET * live_count as f64,
+    };
+    if params.quality == Quality::Fast {
+        let refs = live
+            .iter()
+            .zip(&boxes)
+            .map(|(&id, &bounds)| fast::Ref { id, bounds })
+            .collect();
+        drop((live, boxes));
+        let root = fast::build_node(&ctx, refs, bounds, 0, 0, share);
+        return Ok(Tree { root, bounds });
+    }
     let events: [Vec<Event>; 3] = core::array::from_fn(|axis| {
         let mut list = Vec::with_capacity(2 * boxes.len());
         for (local, b) in boxes.iter().enumerate() {
@@ -277,11 +236,6 @@ pub fn build(
         list
     });
     drop(boxes);
-    let live_count = live.len();
-    let share = Share {
-        weight: PROGRESS_TOTAL,
-        refs: REFERENCE_BUDGET * live_count as f64,
-    };
     let root = build_node(&ctx, live, events, bounds, 0, 0, share);
     Ok(Tree { root, bounds })
 }
@@ -293,13 +247,6 @@ const ABOVE: u8 = 2;
 
 /// Below this many primitives children are built on the current thread.
 const PARALLEL_MIN: usize = 2048;
-
-fn make_leaf(ctx: &Ctx, prims: Vec<u32>, weight: u64) -> BuildNode {
-    if let Some(p) = ctx.progress {
-        p.fetch_add(weight, Ordering::Relaxed);
-    }
-    BuildNode::Leaf(prims)
-}
 
 /// Builds the subtree over `prims` (global ids; position = local id) whose events are `events`.
 fn build_node(
@@ -314,22 +261,14 @@ fn build_node(
     let n = prims.len();
     let weight = share.weight;
     if !ctx.may_split(depth, n, share.refs) {
-        return make_leaf(ctx, prims, weight);
+        return ctx.leaf(prims, weight);
     }
     let best = (0..3)
         .filter_map(|axis| events::best_split_on_axis(&events[axis], n, &bounds, axis, &ctx.costs))
         .min_by(|a, b| a.cost.total_cmp(&b.cost));
-    let leaf_cost = ctx.costs.intersect * ctx.costs.tests(n);
-    let Some(split) = best else {
-        return make_leaf(ctx, prims, weight);
+    let Some((split, bad_refines)) = best.and_then(|s| ctx.accept(s, n, bad_refines)) else {
+        return ctx.leaf(prims, weight);
     };
-    let bad_refines = bad_refines + u32::from(split.cost > leaf_cost);
-    // Priced in groups, a node of at most four groups' triangles stops as soon as no split beats
-    // it (Embree's leaf SAH); pbrt's allowance of bad refines was made for per-primitive leaves.
-    let grouped_stop = ctx.costs.group > 1 && split.cost >= leaf_cost && n <= 4 * ctx.costs.group;
-    if grouped_stop || (split.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= 3 {
-        return make_leaf(ctx, prims, weight);
-    }
     let (below_box, above_box) = bounds.split(split.axis, split.pos);
     let cut = Cut {
         split,
@@ -490,7 +429,7 @@ fn partition_with(
     for (local, &p) in side.iter().enumerate() {
         if p == BOTH {
             let id = prims[local];
-            let (b, a) = (ctx.prims.clip(id, below_box), ctx.prims.clip(id, above_box));
+            let (b, a) = (ctx.clip(id, below_box), ctx.clip(id, above_box));
             // Rounding can in principle empty both: keep the primitive, conservatively, below.
             let b = if b.is_none() && a.is_none() {
                 Some(*below_box)

@@ -1,0 +1,149 @@
+//! The builder's parameters: the SAH's costs, the termination and depth rules, the quality.
+
+use super::events::Costs;
+use super::fast;
+
+/// Builder parameters. The defaults are pbrt-v3's, except where measurement chose otherwise
+/// (see `docs/BUILD.md`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildParams {
+    /// Cost of one traversal step, relative to `intersect_cost`.
+    pub traversal_cost: f64,
+    /// Cost of one primitive test.
+    pub intersect_cost: f64,
+    /// Fraction of the cost saved when a split cuts off empty space.
+    pub empty_bonus: f64,
+    /// A node with at most this many primitives becomes a leaf.
+    pub max_prims: usize,
+    /// Depth limit; `None` is `8 + 1.3·log2(N)` rounded (pbrt-v3), where a node holding more than
+    /// [`BuildParams::deep_leaf_prims`] primitives may still split for [`DEEP_LEVELS`] more levels. Both are
+    /// capped by the core's stack. An explicit limit is a hard one.
+    pub max_depth: Option<u32>,
+    /// Build subtrees on the rayon pool (with the `cli` feature; one thread without it).
+    pub parallel: bool,
+    /// Primitives one leaf test takes: 1, or 4 for leaves stored in triangle groups
+    /// (`kdray::flat::Leaves::Groups`), which the SAH then prices in groups.
+    pub group: usize,
+    /// Past the automatic depth limit, a node holding more than this many primitives may still
+    /// split, for up to [`DEEP_LEVELS`] more levels ([`DEEP_LEAF_PRIMS`], or
+    /// [`GROUPED_DEEP_LEAF_PRIMS`] for grouped leaves).
+    pub deep_leaf_prims: usize,
+    /// Which builder makes the tree ([`Quality`]); the SAH and the rules above are the same.
+    pub quality: Quality,
+    /// The `fast` builder's settings (unused by `high`).
+    pub fast: fast::FastParams,
+}
+
+/// How hard the builder searches, as Embree's build quality: both make valid trees of the same
+/// format with the same cost model (docs/BUILD.md, "Quality").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Quality {
+    /// The exact event sweep with perfect splits at every node (Wald & Havran 2006).
+    #[default]
+    High,
+    /// Binned planes on large nodes, the exact sweep on small ones ([`fast`]); perfect splits
+    /// at every node by default ([`fast::FastParams::clip_min`]).
+    Fast,
+}
+
+impl core::str::FromStr for Quality {
+    type Err = String;
+
+    /// `"high"` or `"fast"` (the names `--quality` takes), for bindings that get a string.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "high" => Ok(Quality::High),
+            "fast" => Ok(Quality::Fast),
+            _ => Err(format!("the quality must be 'high' or 'fast', got '{s}'")),
+        }
+    }
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        Self {
+            traversal_cost: 1.0,
+            intersect_cost: 80.0,
+            empty_bonus: 0.5,
+            max_prims: 1,
+            max_depth: None,
+            parallel: true,
+            group: 1,
+            deep_leaf_prims: DEEP_LEAF_PRIMS,
+            quality: Quality::default(),
+            fast: fast::FastParams::default(),
+        }
+    }
+}
+
+impl BuildParams {
+    /// These parameters built at `quality`.
+    pub fn with_quality(self, quality: Quality) -> Self {
+        Self { quality, ..self }
+    }
+
+    /// The defaults for leaves stored in groups of four (docs/BUILD.md, "Triangle groups"): the
+    /// SAH priced in groups, intersection cost 3 (a group test costs about three interior steps
+    /// in instructions), and past the depth limit only nodes of more than
+    /// [`GROUPED_DEEP_LEAF_PRIMS`] split.
+    pub fn grouped() -> Self {
+        Self {
+            intersect_cost: GROUPED_INTERSECT_COST,
+            group: kdray_core::group::WIDTH,
+            deep_leaf_prims: GROUPED_DEEP_LEAF_PRIMS,
+            ..Self::default()
+        }
+    }
+}
+
+/// [`BuildParams::grouped`]'s intersection cost.
+pub const GROUPED_INTERSECT_COST: f64 = 3.0;
+/// [`BuildParams::grouped`]'s [`BuildParams::deep_leaf_prims`].
+pub const GROUPED_DEEP_LEAF_PRIMS: usize = 32;
+
+impl BuildParams {
+    /// The depth limits for `n` primitives: `(soft, hard)`. Past `soft` only nodes holding more
+    /// than [`BuildParams::deep_leaf_prims`] primitives split; at `hard` none does.
+    pub fn depth_limits(&self, n: usize) -> (u32, u32) {
+        let cap = kdray_core::format::MAX_DEPTH as u32;
+        match self.max_depth {
+            Some(d) => (d.min(cap), d.min(cap)),
+            None => {
+                let auto = (8.0 + 1.3 * (n.max(1) as f64).log2()).round() as u32;
+                (auto.min(cap), (auto + DEEP_LEVELS).min(cap))
+            }
+        }
+    }
+
+    pub(super) fn costs(&self) -> Costs {
+        Costs {
+            traversal: self.traversal_cost,
+            intersect: self.intersect_cost,
+            empty_bonus: self.empty_bonus,
+            group: self.group.max(1),
+        }
+    }
+}
+
+/// Past the automatic depth limit, a node holding more than this many primitives may still split
+/// (by the same cost rules), for up to [`DEEP_LEVELS`] more levels. pbrt-v3's limit alone leaves
+/// the dragon's densest regions in leaves of 10–160 triangles, where both walks spend their time;
+/// letting only those continue costs 28 % more nodes (5 % more bytes) and makes single rays
+/// 20–30 % faster, 8-wide packets about as fast (docs/BUILD.md).
+pub const DEEP_LEAF_PRIMS: usize = 8;
+/// See [`DEEP_LEAF_PRIMS`].
+pub const DEEP_LEVELS: u32 = 6;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn qualities_parse_by_name_and_others_are_refused_by_name() {
+        assert_eq!("high".parse::<Quality>(), Ok(Quality::High));
+        assert_eq!("fast".parse::<Quality>(), Ok(Quality::Fast));
+        let e = "medium".parse::<Quality>().unwrap_err();
+        assert!(e.contains("'medium'") && e.contains("'fast'"), "{e}");
+    }
+}
