@@ -34,7 +34,7 @@ pub struct BuildParams {
     /// [`BuildParams::deep_leaf_prims`] primitives may still split for [`DEEP_LEVELS`] more levels. Both are
     /// capped by the core's stack. An explicit limit is a hard one.
     pub max_depth: Option<u32>,
-    /// Build subtrees on the rayon pool (with the `cli` feature; one thread without it).
+    /// Build subtrees on the rayon pool (with the `parallel` feature; one thread without it).
     pub parallel: bool,
     /// Primitives one leaf test takes: 1, or 4 for leaves stored in triangle groups
     /// (`kdray::flat::Leaves::Groups`), which the SAH then prices in groups.
@@ -355,14 +355,14 @@ fn build_node(
     }
 }
 
-/// Runs `a` and `b`, on the rayon pool when `parallel` (and the `cli` feature, which brings
+/// Runs `a` and `b`, on the rayon pool when `parallel` (and the `parallel` feature, which brings
 /// rayon, is on), else one after the other on this thread (the WASM build: one thread).
 fn join<A: Send, B: Send>(
     parallel: bool,
     a: impl FnOnce() -> A + Send,
     b: impl FnOnce() -> B + Send,
 ) -> (A, B) {
-    #[cfg(feature = "cli")]
+    #[cfg(feature = "parallel")]
     if parallel {
         return rayon::join(a, b);
     }
