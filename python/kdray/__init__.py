@@ -19,6 +19,7 @@ as ``kdray trace`` (the Rust crates ``kdray`` and ``kdray-core``); ``count_inter
 
 from __future__ import annotations
 
+import errno
 import math
 import operator
 import os
@@ -240,9 +241,16 @@ class Scene:
         ``.ply.gz``, ``.obj``, ``.tri`` (build options as for :class:`Scene`)."""
         opts = _build_options(build_options)
         threads = _threads(threads)
-        path = os.fspath(path)
+        try:
+            path = os.fspath(path)
+        except TypeError:
+            raise TypeError(
+                f"path must be a str or os.PathLike, not {type(path).__name__}"
+            ) from None
         if not isinstance(path, str):
             raise TypeError(f"path must be a str or os.PathLike, not {type(path).__name__}")
+        if not os.path.exists(path):
+            raise FileNotFoundError(errno.ENOENT, "no such file", path)
         return cls._wrap(_kdray.Tree.load(path, opts["layout"], opts["leaves"], threads), watertight)
 
     @classmethod

@@ -370,9 +370,9 @@ impl Tree {
                 on_pool(threads, || {
                     if let Some(i) = p.iter().position(|x| !x.is_finite()) {
                         return Err(format!(
-                            "points[{}] is {:?}: every coordinate must be finite",
+                            "points[{}] is {}: every coordinate must be finite",
                             i / 3,
-                            &p[i / 3 * 3..i / 3 * 3 + 3]
+                            mesh::row(&p[i / 3 * 3..i / 3 * 3 + 3])
                         ));
                     }
                     Ok(rays::contains(scene, p))

@@ -22,7 +22,7 @@ pub fn triangles(vertices: &[f32], faces: Option<&[i64]>) -> Result<Vec<[Vec3; 3
             "vertices[{}, {}] is {} (in float32): every coordinate must be finite",
             i / 3,
             i % 3,
-            vertices[i]
+            number(vertices[i])
         ));
     }
     let n = vertices.len() / 3;
@@ -73,6 +73,23 @@ pub fn triangles(vertices: &[f32], faces: Option<&[i64]>) -> Result<Vec<[Vec3; 3
         ));
     }
     Ok(tris)
+}
+
+/// A float as Python prints it: `nan`, `inf`, `-inf`, `0.5`.
+pub fn number(x: f32) -> String {
+    if x.is_nan() {
+        "nan".into()
+    } else if x.is_infinite() {
+        if x > 0.0 { "inf" } else { "-inf" }.into()
+    } else {
+        format!("{x}")
+    }
+}
+
+/// A row of floats as Python prints a tuple of them: `(nan, 0, 1.5)`.
+pub fn row(xs: &[f32]) -> String {
+    let parts: Vec<String> = xs.iter().map(|&x| number(x)).collect();
+    format!("({})", parts.join(", "))
 }
 
 fn check_count(n: usize) -> Result<(), String> {

@@ -12,6 +12,7 @@
 //! runs as packets, the rest sorted and traced as interleaved single rays), one stream per piece
 //! of the batch; every hit along a ray through the host's exact crossings (`kdray::crossings`).
 
+use crate::mesh::{number, row};
 use glam::Vec3;
 use kdray::crossings::{AllHit, all_hits};
 use kdray_core::traverse::Mode;
@@ -76,8 +77,8 @@ impl Batch<'_> {
                 .position_first(|v| !v.iter().all(|x| x.is_finite()))
             {
                 Some(i) => Err(format!(
-                    "{name}[{i}] is {:?}: every coordinate must be finite",
-                    &a[3 * i..3 * i + 3]
+                    "{name}[{i}] is {}: every coordinate must be finite",
+                    row(&a[3 * i..3 * i + 3])
                 )),
                 None => Ok(()),
             }
@@ -92,7 +93,10 @@ impl Batch<'_> {
             return Err(format!("directions[{i}] is zero"));
         }
         if let Some(i) = self.tmin.par_iter().position_first(|t| !t.is_finite()) {
-            return Err(format!("tmin[{i}] is {}: it must be finite", self.tmin[i]));
+            return Err(format!(
+                "tmin[{i}] is {}: it must be finite",
+                number(self.tmin[i])
+            ));
         }
         if let Some(i) = self
             .tmax
@@ -101,7 +105,7 @@ impl Batch<'_> {
         {
             return Err(format!(
                 "tmax[{i}] is {}: it must be finite or +inf",
-                self.tmax[i]
+                number(self.tmax[i])
             ));
         }
         if let Some(i) = (0..self.n)
@@ -110,8 +114,8 @@ impl Batch<'_> {
         {
             return Err(format!(
                 "ray {i}: tmin {} is above tmax {}",
-                Self::row(self.tmin, i),
-                Self::row(self.tmax, i)
+                number(Self::row(self.tmin, i)),
+                number(Self::row(self.tmax, i))
             ));
         }
         Ok(())
