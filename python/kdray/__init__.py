@@ -82,6 +82,8 @@ def _threads(threads: Any) -> Optional[int]:
 
 def _float_array(x: Any, name: str) -> np.ndarray:
     """``x`` as a float32 array: read in place when it is one, converted once otherwise."""
+    if type(x) is np.ndarray and x.dtype == np.float32:
+        return x
     a = np.asarray(x)
     if a.dtype == np.float32:
         return a
@@ -103,8 +105,9 @@ def _points(x: Any, name: str) -> Tuple[np.ndarray, Tuple[int, ...]]:
 def _rows(a: np.ndarray, lead: Tuple[int, ...], shape: Tuple[int, ...], width: int) -> np.ndarray:
     """``a`` (leading shape ``lead``) for a batch of ``shape``: one row when it has one element
     (shared by every ray, not copied), else all of them, broadcast and made contiguous."""
-    size = math.prod(lead)
-    if size == 1:
+    if lead == shape and a.flags.c_contiguous:
+        return a.reshape((-1, width) if width > 1 else (-1,))
+    if math.prod(lead) == 1:
         return np.ascontiguousarray(a.reshape((1, width) if width > 1 else (1,)))
     if lead != shape:
         a = np.broadcast_to(a, shape + ((width,) if width > 1 else ()))
@@ -124,18 +127,27 @@ class _Batch(NamedTuple):
         return math.prod(self.shape)
 
 
+def _interval(x: Any, name: str) -> np.ndarray:
+    if type(x) is float or type(x) is int:
+        return np.array((x,), dtype=np.float32).reshape(())
+    return _float_array(x, name)
+
+
 def _batch(origins: Any, directions: Any, tmin: Any, tmax: Any) -> _Batch:
     o, o_lead = _points(origins, "origins")
     d, d_lead = _points(directions, "directions")
-    lo = _float_array(tmin, "tmin")
-    hi = _float_array(tmax, "tmax")
-    try:
-        shape = np.broadcast_shapes(o_lead, d_lead, lo.shape, hi.shape)
-    except ValueError:
-        raise ValueError(
-            f"origins {o.shape}, directions {d.shape}, tmin {lo.shape} and tmax {hi.shape} "
-            "do not broadcast to one batch of rays"
-        ) from None
+    lo = _interval(tmin, "tmin")
+    hi = _interval(tmax, "tmax")
+    if o_lead == d_lead and lo.ndim == 0 and hi.ndim == 0:
+        shape = o_lead  # the common case, without numpy's general rule
+    else:
+        try:
+            shape = np.broadcast_shapes(o_lead, d_lead, lo.shape, hi.shape)
+        except ValueError:
+            raise ValueError(
+                f"origins {o.shape}, directions {d.shape}, tmin {lo.shape} and tmax "
+                f"{hi.shape} do not broadcast to one batch of rays"
+            ) from None
     return _Batch(
         _rows(o, o_lead, shape, 3),
         _rows(d, d_lead, shape, 3),

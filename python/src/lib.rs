@@ -122,13 +122,15 @@ fn traced<T: Send>(
     batch: &Batch,
     f: impl FnOnce() -> T + Send,
 ) -> PyResult<T> {
-    py.detach(|| {
-        on_pool(threads, || -> Result<T, String> {
-            batch.check_values()?;
-            Ok(f())
-        })
-    })?
-    .map_err(value_error)
+    let run = || -> Result<T, String> {
+        batch.check_values()?;
+        Ok(f())
+    };
+    if batch.n <= rays::CHUNK {
+        // A few rays: on this thread, which is faster than handing them to a pool.
+        return py.detach(run).map_err(value_error);
+    }
+    py.detach(|| on_pool(threads, run))?.map_err(value_error)
 }
 
 fn mode(watertight: bool) -> Mode {

@@ -20,8 +20,31 @@ use kdray_core::traverse::stream::{self, Config};
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
 
-/// Rays per piece of work at least: enough to amortize a stream's sort and scheduling.
-const CHUNK: usize = 4096;
+/// Rays per piece of work at least: enough to amortize a stream's sort and scheduling. A batch
+/// of at most this many rays is traced on the calling thread: handing a few rays to the pool
+/// costs more than tracing them.
+pub const CHUNK: usize = 4096;
+
+/// The first item that is `bad`: on the pool for a long slice, here for a short one.
+fn first<T: Sync>(items: &[T], bad: impl Fn(&T) -> bool + Sync + Send) -> Option<usize> {
+    if items.len() <= CHUNK {
+        items.iter().position(bad)
+    } else {
+        items.par_iter().position_first(bad)
+    }
+}
+
+/// Runs `work` on each chunk of `out` of `c` items (and its index), on the pool when there is
+/// more than one.
+fn for_chunks<T: Send>(out: &mut [T], c: usize, work: impl Fn(usize, &mut [T]) + Sync) {
+    if out.len() <= c {
+        work(0, out);
+    } else {
+        out.par_chunks_mut(c)
+            .enumerate()
+            .for_each(|(k, chunk)| work(k, chunk));
+    }
+}
 
 /// Rays as numpy hands them over (module doc).
 #[derive(Clone, Copy, Debug)]
@@ -72,46 +95,39 @@ impl Batch<'_> {
     /// The array, the row and the problem.
     pub fn check_values(&self) -> Result<(), String> {
         let bad3 = |a: &[f32], name: &str| -> Result<(), String> {
-            match a
-                .par_chunks_exact(3)
-                .position_first(|v| !v.iter().all(|x| x.is_finite()))
-            {
+            let (rows, _) = a.as_chunks::<3>();
+            match first(rows, |v| !v.iter().all(|x| x.is_finite())) {
                 Some(i) => Err(format!(
                     "{name}[{i}] is {}: every coordinate must be finite",
-                    row(&a[3 * i..3 * i + 3])
+                    row(&rows[i])
                 )),
                 None => Ok(()),
             }
         };
         bad3(self.origins, "origins")?;
         bad3(self.directions, "directions")?;
-        if let Some(i) = self
-            .directions
-            .par_chunks_exact(3)
-            .position_first(|v| v == [0.0; 3])
-        {
+        if let Some(i) = first(self.directions.as_chunks::<3>().0, |v| *v == [0.0; 3]) {
             return Err(format!("directions[{i}] is zero"));
         }
-        if let Some(i) = self.tmin.par_iter().position_first(|t| !t.is_finite()) {
+        if let Some(i) = first(self.tmin, |t| !t.is_finite()) {
             return Err(format!(
                 "tmin[{i}] is {}: it must be finite",
                 number(self.tmin[i])
             ));
         }
-        if let Some(i) = self
-            .tmax
-            .par_iter()
-            .position_first(|t| t.is_nan() || *t == f32::NEG_INFINITY)
-        {
+        if let Some(i) = first(self.tmax, |t| t.is_nan() || *t == f32::NEG_INFINITY) {
             return Err(format!(
                 "tmax[{i}] is {}: it must be finite or +inf",
                 number(self.tmax[i])
             ));
         }
-        if let Some(i) = (0..self.n)
-            .into_par_iter()
-            .position_first(|i| Self::row(self.tmin, i) > Self::row(self.tmax, i))
-        {
+        let above = |i: &usize| Self::row(self.tmin, *i) > Self::row(self.tmax, *i);
+        let i = if self.n <= CHUNK {
+            (0..self.n).position(|i| above(&i))
+        } else {
+            (0..self.n).into_par_iter().position_first(|i| above(&i))
+        };
+        if let Some(i) = i {
             return Err(format!(
                 "ray {i}: tmin {} is above tmax {}",
                 number(Self::row(self.tmin, i)),
@@ -221,7 +237,7 @@ pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, points: bool, normals
         })
         .collect();
     let config = stream_config(mode);
-    pieces.into_par_iter().for_each(|p| {
+    let work = |p: Piece| {
         let range = p.start..p.start + p.t.len();
         let (rays, lens): (Vec<Ray>, Vec<f64>) = range.clone().map(|i| batch.ray(i)).unzip();
         let mut hits = vec![Hit::MISS; rays.len()];
@@ -266,7 +282,12 @@ pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, points: bool, normals
                 out.copy_from_slice(&normal);
             }
         }
-    });
+    };
+    if pieces.len() == 1 {
+        pieces.into_iter().for_each(work);
+    } else {
+        pieces.into_par_iter().for_each(work);
+    }
     out
 }
 
@@ -275,7 +296,7 @@ pub fn occluded(scene: &Scene, batch: &Batch, mode: Mode) -> Vec<bool> {
     let mut out = vec![false; batch.n];
     let c = batch.pieces();
     let config = stream_config(mode);
-    out.par_chunks_mut(c).enumerate().for_each(|(k, out)| {
+    for_chunks(&mut out, c, |k, out| {
         let rays: Vec<Ray> = (k * c..k * c + out.len()).map(|i| batch.ray(i).0).collect();
         let mut scratch = vec![0u64; stream::scratch_words(rays.len())];
         let _ = stream::occluded(scene, &config, &rays, out, &mut scratch);
@@ -292,7 +313,7 @@ fn every_hit<T: Send>(
     each: impl Fn(usize, f64, &[AllHit]) -> T + Sync,
 ) {
     let c = batch.pieces();
-    out.par_chunks_mut(c).enumerate().for_each(|(k, out)| {
+    for_chunks(out, c, |k, out| {
         let mut hits = Vec::new();
         for (j, o) in out.iter_mut().enumerate() {
             let i = k * c + j;
