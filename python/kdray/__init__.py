@@ -332,6 +332,33 @@ class Scene:
             None if n is None else n.reshape(shape + (3,)),
         )
 
+    def raycast(
+        self, origin: Any, direction: Any, tmin: float = 0.0, tmax: float = math.inf
+    ) -> Tuple[float, int, float, float]:
+        """One ray's closest hit as Python numbers, ``(t, prim, u, v)`` (``(inf, -1, 0.0, 0.0)``
+        for a miss): the quick call for a ray at a time, with no arrays made. ``origin`` and
+        ``direction`` are sequences of 3 numbers; answers as :meth:`intersect` gives them.
+
+        >>> import kdray
+        >>> kdray.Scene([[0, 0, 0], [1, 0, 0], [0, 1, 0]]).raycast((0.25, 0.5, 1), (0, 0, -1))
+        (1.0, 0, 0.25, 0.5)
+        """
+        try:
+            return self._tree.raycast(origin, direction, tmin, tmax, self.watertight)
+        except (TypeError, ValueError) as e:
+            for name, x in (("origin", origin), ("direction", direction)):
+                if np.shape(x) != (3,):
+                    raise TypeError(f"{name} must be 3 numbers, not {x!r}") from None
+            for name, x in (("tmin", tmin), ("tmax", tmax)):
+                if not isinstance(x, (int, float, np.number)):
+                    raise TypeError(f"{name} must be a number, not {x!r}") from None
+            # The batch's words for the one ray's arguments.
+            msg = str(e)
+            for batch, one in (("origins[0]", "origin"), ("directions[0]", "direction"),
+                               ("tmin[0]", "tmin"), ("tmax[0]", "tmax"), ("ray 0: ", "")):
+                msg = msg.replace(batch, one)
+            raise type(e)(msg) from None
+
     def occluded(
         self,
         origins: Any,

@@ -67,6 +67,9 @@ class Scene:
         normals: bool = False,
         threads: Optional[int] = None,
     ) -> Hits: ...
+    def raycast(
+        self, origin: npt.ArrayLike, direction: npt.ArrayLike, tmin: float = 0.0, tmax: float = ...
+    ) -> Tuple[float, int, float, float]: ...
     def occluded(
         self,
         origins: _Floats,

@@ -251,6 +251,31 @@ impl Tree {
         Ok(d)
     }
 
+    /// One ray's closest hit, `(t, prim, u, v)`, without arrays (and with the GIL: it is short).
+    #[pyo3(signature = (origin, direction, tmin, tmax, watertight))]
+    fn raycast(
+        &self,
+        origin: [f32; 3],
+        direction: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+        watertight: bool,
+    ) -> PyResult<(f32, i64, f32, f32)> {
+        let batch = Batch {
+            origins: &origin,
+            directions: &direction,
+            tmin: &[tmin],
+            tmax: &[tmax],
+            n: 1,
+        };
+        batch.check_values().map_err(value_error)?;
+        Ok(rays::closest_one(
+            self.owned.scene(),
+            &batch,
+            mode(watertight),
+        ))
+    }
+
     /// Closest hits: `(t, prim, u, v, points or None, normals or None)`.
     #[allow(clippy::too_many_arguments, clippy::type_complexity)]
     #[pyo3(signature = (origins, directions, tmin, tmax, n, watertight, points, normals, threads))]

@@ -291,6 +291,23 @@ pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, points: bool, normals
     out
 }
 
+/// The closest hit of the one ray of `batch` (checked) by the single-ray walk: `(t, prim, u, v)`
+/// as [`intersect`] gives them.
+pub fn closest_one(scene: &Scene, batch: &Batch, mode: Mode) -> (f32, i64, f32, f32) {
+    let (ray, len) = batch.ray(0);
+    let h = scene.intersect_in(mode, &ray);
+    if h.is_hit() {
+        (
+            (f64::from(h.t) / len) as f32,
+            i64::from(scene.input_id(h.prim)),
+            h.u,
+            h.v,
+        )
+    } else {
+        (f32::INFINITY, -1, 0.0, 0.0)
+    }
+}
+
 /// Whether anything lies along each ray of `batch` (checked) in its interval.
 pub fn occluded(scene: &Scene, batch: &Batch, mode: Mode) -> Vec<bool> {
     let mut out = vec![false; batch.n];

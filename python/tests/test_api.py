@@ -31,6 +31,9 @@ def test_a_batch_equals_single_calls(mesh_and_rays):
         assert one.t == batch.t[i] and one.prim == batch.prim[i]
         assert one.u == batch.u[i] and one.v == batch.v[i]
         np.testing.assert_array_equal(one.normals, batch.normals[i])
+        t, prim, u, v = scene.raycast(origins[i].tolist(), directions[i])
+        assert (t, prim, u, v) == (batch.t[i], batch.prim[i], batch.u[i], batch.v[i])
+        assert type(t) is float and type(prim) is int
         assert scene.occluded(origins[i], directions[i]) == occluded[i]
         assert scene.count_intersections(origins[i], directions[i]) == counts[i]
         every = scene.intersect_all(origins[i], directions[i])

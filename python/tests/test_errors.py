@@ -153,6 +153,22 @@ def test_bad_rays(scene, method, args, kind, words):
     assert scene.count_intersections(RAY_O, RAY_D).tolist() == [2, 2]
 
 
+def test_bad_single_rays(scene):
+    with raises(ValueError, "origin is (0.1, nan, 0)", "finite"):
+        scene.raycast((0.1, np.nan, 0), (0, 0, 1))
+    with raises(ValueError, "direction is zero"):
+        scene.raycast((0.1, 0.1, -1), (0, 0, 0))
+    with raises(ValueError, "tmin 3 is above tmax 1"):
+        scene.raycast((0.1, 0.1, -1), (0, 0, 1), 3.0, 1.0)
+    with raises(TypeError, "origin", "3 numbers"):
+        scene.raycast((0.1, 0.1), (0, 0, 1))
+    with raises(TypeError, "direction", "3 numbers"):
+        scene.raycast((0.1, 0.1, 0), "up")
+    with raises(TypeError, "tmax", "number"):
+        scene.raycast((0.1, 0.1, 0), (0, 0, 1), 0.0, "far")
+    assert scene.raycast((0.1, 0.1, -1), (0, 0, 1))[1] >= 0
+
+
 def test_bad_call_options(scene):
     with raises(ValueError, "threads=-1"):
         scene.intersect(RAY_O, RAY_D, threads=-1)
