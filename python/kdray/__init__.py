@@ -116,15 +116,14 @@ def _rows(a: np.ndarray, lead: Tuple[int, ...], shape: Tuple[int, ...], width: i
 
 
 class _Batch(NamedTuple):
+    """What the extension's batch calls take (python/src/lib.rs, ``RayArgs``)."""
+
     origins: np.ndarray
     directions: np.ndarray
     tmin: np.ndarray
     tmax: np.ndarray
+    n: int
     shape: Tuple[int, ...]
-
-    @property
-    def n(self) -> int:
-        return math.prod(self.shape)
 
 
 def _interval(x: Any, name: str) -> np.ndarray:
@@ -153,6 +152,7 @@ def _batch(origins: Any, directions: Any, tmin: Any, tmax: Any) -> _Batch:
         _rows(d, d_lead, shape, 3),
         _rows(lo, lo.shape, shape, 1),
         _rows(hi, hi.shape, shape, 1),
+        math.prod(shape),
         shape,
     )
 
@@ -270,7 +270,15 @@ class Scene:
         """A scene from the bytes of a ``.kdt`` (as :meth:`to_bytes` gives them), validated."""
         if not isinstance(data, (bytes, bytearray, memoryview)):
             raise TypeError(f"data must be bytes, not {type(data).__name__}")
-        return cls._wrap(_kdray.Tree.from_bytes(bytes(data)), watertight)
+        size = memoryview(data).nbytes
+        if size % 4:
+            raise ValueError(
+                f"data: {size} bytes: a .kdt is a whole number of 4-byte words (truncated?)"
+            )
+        # The words in place when the buffer is aligned, else copied once (the tree is copied
+        # once more, onto cache lines, as it is validated).
+        words = np.require(np.frombuffer(data, dtype="<u4"), requirements="CA")
+        return cls._wrap(_kdray.Tree.from_words(words), watertight)
 
     def to_bytes(self) -> bytes:
         """The tree as the bytes of a ``.kdt`` file."""
@@ -319,8 +327,7 @@ class Scene:
         """
         b = _batch(origins, directions, tmin, tmax)
         t, prim, u, v, p, n = self._tree.intersect(
-            b.origins, b.directions, b.tmin, b.tmax, b.n,
-            self.watertight, bool(points), bool(normals), _threads(threads),
+            b, self.watertight, bool(points), bool(normals), _threads(threads)
         )
         shape = b.shape
         return Hits(
@@ -371,9 +378,7 @@ class Scene:
         """Whether any triangle lies along each ray in ``(tmin, tmax)``: a bool array (shadow
         rays: stop at the first hit found). Arguments as :meth:`intersect`."""
         b = _batch(origins, directions, tmin, tmax)
-        out = self._tree.occluded(
-            b.origins, b.directions, b.tmin, b.tmax, b.n, self.watertight, _threads(threads)
-        )
+        out = self._tree.occluded(b, self.watertight, _threads(threads))
         return out.reshape(b.shape)
 
     def count_intersections(
@@ -390,7 +395,7 @@ class Scene:
         triangle, and one that only touches counts none or two. Arguments as
         :meth:`intersect`."""
         b = _batch(origins, directions, tmin, tmax)
-        out = self._tree.count(b.origins, b.directions, b.tmin, b.tmax, b.n, _threads(threads))
+        out = self._tree.count(b, _threads(threads))
         return out.reshape(b.shape)
 
     def intersect_all(
@@ -413,9 +418,7 @@ class Scene:
         ([0, 0], [1.0, 2.0], [0, 1])
         """
         b = _batch(origins, directions, tmin, tmax)
-        ray, t, prim = self._tree.all(
-            b.origins, b.directions, b.tmin, b.tmax, b.n, _threads(threads)
-        )
+        ray, t, prim = self._tree.all(b, _threads(threads))
         return AllHits(ray, t, prim)
 
     def contains(self, points: Any, *, threads: Optional[int] = None) -> np.ndarray:

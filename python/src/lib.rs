@@ -95,20 +95,28 @@ struct Tree {
     owned: Owned,
 }
 
-impl Tree {
-    fn batch<'a>(
-        origins: &'a PyReadonlyArray2<'_, f32>,
-        directions: &'a PyReadonlyArray2<'_, f32>,
-        tmin: &'a PyReadonlyArray1<'_, f32>,
-        tmax: &'a PyReadonlyArray1<'_, f32>,
-        n: usize,
-    ) -> PyResult<Batch<'a>> {
+/// A batch of rays as the Python layer passes it (`kdray._Batch`, a tuple): origins and
+/// directions `(k, 3)`, `tmin` and `tmax` `(k,)` (C-contiguous float32, `k` = 1 or `n`), the
+/// number of rays `n`, and the batch's shape (for the Python layer).
+#[derive(FromPyObject)]
+struct RayArgs<'py>(
+    PyReadonlyArray2<'py, f32>,
+    PyReadonlyArray2<'py, f32>,
+    PyReadonlyArray1<'py, f32>,
+    PyReadonlyArray1<'py, f32>,
+    usize,
+    #[allow(dead_code)] Bound<'py, PyAny>,
+);
+
+impl RayArgs<'_> {
+    /// The arrays read in place, their lengths checked.
+    fn batch(&self) -> PyResult<Batch<'_>> {
         let batch = Batch {
-            origins: slice(origins, "origins")?,
-            directions: slice(directions, "directions")?,
-            tmin: slice(tmin, "tmin")?,
-            tmax: slice(tmax, "tmax")?,
-            n,
+            origins: slice(&self.0, "origins")?,
+            directions: slice(&self.1, "directions")?,
+            tmin: slice(&self.2, "tmin")?,
+            tmax: slice(&self.3, "tmax")?,
+            n: self.4,
         };
         batch.check_lengths().map_err(value_error)?;
         Ok(batch)
@@ -201,10 +209,11 @@ impl Tree {
         })
     }
 
-    /// A tree from the bytes of a `.kdt` (validated).
+    /// A tree from the words of a `.kdt` (validated): its bytes viewed as little-endian u32.
     #[staticmethod]
-    fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
-        let owned = py.detach(|| owned::from_bytes(data));
+    fn from_words(py: Python<'_>, words: PyReadonlyArray1<'_, u32>) -> PyResult<Self> {
+        let words = slice(&words, "data")?;
+        let owned = py.detach(|| Owned::from_words(words));
         Ok(Self {
             owned: owned.map_err(|e| value_error(format!("data: {e}")))?,
         })
@@ -277,16 +286,12 @@ impl Tree {
     }
 
     /// Closest hits: `(t, prim, u, v, points or None, normals or None)`.
-    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
-    #[pyo3(signature = (origins, directions, tmin, tmax, n, watertight, points, normals, threads))]
+    #[allow(clippy::type_complexity)]
+    #[pyo3(signature = (rays, watertight, points, normals, threads))]
     fn intersect<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f32>,
-        directions: PyReadonlyArray2<'py, f32>,
-        tmin: PyReadonlyArray1<'py, f32>,
-        tmax: PyReadonlyArray1<'py, f32>,
-        n: usize,
+        rays: RayArgs<'py>,
         watertight: bool,
         points: bool,
         normals: bool,
@@ -299,7 +304,7 @@ impl Tree {
         Option<Bound<'py, PyArray1<f32>>>,
         Option<Bound<'py, PyArray1<f32>>>,
     )> {
-        let batch = Self::batch(&origins, &directions, &tmin, &tmax, n)?;
+        let batch = rays.batch()?;
         let scene = self.owned.scene();
         let out = traced(py, threads, &batch, || {
             rays::intersect(scene, &batch, mode(watertight), points, normals)
@@ -315,20 +320,15 @@ impl Tree {
     }
 
     /// Whether anything lies along each ray.
-    #[allow(clippy::too_many_arguments)]
-    #[pyo3(signature = (origins, directions, tmin, tmax, n, watertight, threads))]
+    #[pyo3(signature = (rays, watertight, threads))]
     fn occluded<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f32>,
-        directions: PyReadonlyArray2<'py, f32>,
-        tmin: PyReadonlyArray1<'py, f32>,
-        tmax: PyReadonlyArray1<'py, f32>,
-        n: usize,
+        rays: RayArgs<'py>,
         watertight: bool,
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-        let batch = Self::batch(&origins, &directions, &tmin, &tmax, n)?;
+        let batch = rays.batch()?;
         let scene = self.owned.scene();
         let out = traced(py, threads, &batch, || {
             rays::occluded(scene, &batch, mode(watertight))
@@ -337,42 +337,33 @@ impl Tree {
     }
 
     /// Exact crossings per ray.
-    #[allow(clippy::too_many_arguments)]
-    #[pyo3(signature = (origins, directions, tmin, tmax, n, threads))]
+    #[pyo3(signature = (rays, threads))]
     fn count<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f32>,
-        directions: PyReadonlyArray2<'py, f32>,
-        tmin: PyReadonlyArray1<'py, f32>,
-        tmax: PyReadonlyArray1<'py, f32>,
-        n: usize,
+        rays: RayArgs<'py>,
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyArray1<i64>>> {
-        let batch = Self::batch(&origins, &directions, &tmin, &tmax, n)?;
+        let batch = rays.batch()?;
         let scene = self.owned.scene();
         let out = traced(py, threads, &batch, || rays::count(scene, &batch))?;
         Ok(PyArray1::from_vec(py, out))
     }
 
     /// Every exact crossing: `(ray, t, prim)`, flattened.
-    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
-    #[pyo3(signature = (origins, directions, tmin, tmax, n, threads))]
+    #[allow(clippy::type_complexity)]
+    #[pyo3(signature = (rays, threads))]
     fn all<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f32>,
-        directions: PyReadonlyArray2<'py, f32>,
-        tmin: PyReadonlyArray1<'py, f32>,
-        tmax: PyReadonlyArray1<'py, f32>,
-        n: usize,
+        rays: RayArgs<'py>,
         threads: Option<usize>,
     ) -> PyResult<(
         Bound<'py, PyArray1<i64>>,
         Bound<'py, PyArray1<f32>>,
         Bound<'py, PyArray1<i64>>,
     )> {
-        let batch = Self::batch(&origins, &directions, &tmin, &tmax, n)?;
+        let batch = rays.batch()?;
         let scene = self.owned.scene();
         let (ray, t, prim) = traced(py, threads, &batch, || rays::all(scene, &batch))?;
         Ok((

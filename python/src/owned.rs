@@ -3,7 +3,7 @@
 //! next to them, in one self-referential cell (`self_cell`, so without `unsafe` here).
 //!
 //! Where the words come from: a mesh built by the host library's SAH builder and serializer
-//! ([`build`]: what `kdray build` does), a `.kdt` file or its bytes ([`from_bytes`]).
+//! ([`build`]: what `kdray build` does), a `.kdt` file or its bytes ([`Owned::from_words`]).
 
 use glam::Vec3;
 use kdray::Geometry;
@@ -92,22 +92,4 @@ pub fn build_geometry(geom: &Geometry, options: Options) -> Result<Owned, String
     let words = flat::serialize_as(&tree, geom, ms, options.layout, options.leaves)?;
     Owned::from_words(&words)
         .map_err(|e| format!("the built tree does not validate ({e}): please report this mesh"))
-}
-
-/// A scene from the bytes of a `.kdt` file (little-endian words).
-///
-/// # Errors
-/// A length that is not a whole number of words, or what validation finds.
-pub fn from_bytes(bytes: &[u8]) -> Result<Owned, String> {
-    if !bytes.len().is_multiple_of(4) {
-        return Err(format!(
-            "{} bytes: a .kdt is a whole number of 4-byte words (truncated?)",
-            bytes.len()
-        ));
-    }
-    let words: Vec<u32> = bytes
-        .chunks_exact(4)
-        .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-        .collect();
-    Owned::from_words(&words)
 }
