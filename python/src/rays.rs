@@ -30,8 +30,45 @@ fn first<T: Sync>(items: &[T], bad: impl Fn(&T) -> bool + Sync + Send) -> Option
     if items.len() <= CHUNK {
         items.iter().position(bad)
     } else {
-        items.par_iter().position_first(bad)
+        // Pieces checked by plain loops: rayon's item-by-item `position_first` cost more than
+        // the trace itself.
+        items
+            .par_chunks(CHUNK)
+            .enumerate()
+            .find_map_first(|(k, c)| c.iter().position(&bad).map(|j| k * CHUNK + j))
     }
+}
+
+/// Rays a stream traces at most: long enough for the sort to find coherent runs, short enough
+/// that a thread's buffers ([`Buffers`]) stay a few MB and are reused (fresh pages cost this VM
+/// about as much as tracing into them).
+const MAX_PIECE: usize = 1 << 17;
+
+/// A thread's buffers for one stream: the rays, their answers, the sort's scratch. Kept between
+/// pieces and calls.
+#[derive(Default)]
+struct Buffers {
+    rays: Vec<Ray>,
+    hits: Vec<Hit>,
+    scratch: Vec<u64>,
+}
+
+thread_local! {
+    static BUFFERS: core::cell::RefCell<Buffers> = core::cell::RefCell::default();
+}
+
+/// Runs `f` with this thread's [`Buffers`], the rays `range` of `batch` in them (as traced).
+fn with_rays<R>(
+    batch: &Batch,
+    range: core::ops::Range<usize>,
+    f: impl FnOnce(&mut Buffers) -> R,
+) -> R {
+    BUFFERS.with_borrow_mut(|b| {
+        b.rays.clear();
+        b.rays.extend(range.map(|i| batch.ray(i).0));
+        b.scratch.resize(stream::scratch_words(b.rays.len()), 0);
+        f(b)
+    })
 }
 
 /// Runs `work` on each chunk of `out` of `c` items (and its index), on the pool when there is
@@ -122,11 +159,18 @@ impl Batch<'_> {
             ));
         }
         let above = |i: &usize| Self::row(self.tmin, *i) > Self::row(self.tmax, *i);
-        let i = if self.n <= CHUNK {
-            (0..self.n).position(|i| above(&i))
+        let rows = if self.tmin.len() == 1 && self.tmax.len() == 1 {
+            self.n.min(1)
         } else {
-            (0..self.n).into_par_iter().position_first(|i| above(&i))
+            self.n
         };
+        let i = (0..rows.div_ceil(CHUNK))
+            .into_par_iter()
+            .find_map_first(|k| {
+                (k * CHUNK..rows.min((k + 1) * CHUNK))
+                    .position(|i| above(&i))
+                    .map(|j| k * CHUNK + j)
+            });
         if let Some(i) = i {
             return Err(format!(
                 "ray {i}: tmin {} is above tmax {}",
@@ -161,7 +205,12 @@ impl Batch<'_> {
     fn pieces(&self) -> usize {
         self.n
             .div_ceil(4 * rayon::current_num_threads().max(1))
-            .max(CHUNK)
+            .clamp(CHUNK, MAX_PIECE)
+    }
+
+    /// The length of ray `i`'s direction, by which `t` is scaled back.
+    fn length(&self, i: usize) -> f64 {
+        Self::row3(self.directions, i).as_dvec3().length()
     }
 }
 
@@ -239,15 +288,17 @@ pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, points: bool, normals
     let config = stream_config(mode);
     let work = |p: Piece| {
         let range = p.start..p.start + p.t.len();
-        let (rays, lens): (Vec<Ray>, Vec<f64>) = range.clone().map(|i| batch.ray(i)).unzip();
-        let mut hits = vec![Hit::MISS; rays.len()];
-        let mut scratch = vec![0u64; stream::scratch_words(rays.len())];
-        // The lengths match by construction, so this cannot fail.
-        let _ = stream::intersect(scene, &config, &rays, &mut hits, &mut scratch);
+        let hits = with_rays(batch, range, |b| {
+            b.hits.clear();
+            b.hits.resize(b.rays.len(), Hit::MISS);
+            // The lengths match by construction, so this cannot fail.
+            let _ = stream::intersect(scene, &config, &b.rays, &mut b.hits, &mut b.scratch);
+            core::mem::take(&mut b.hits)
+        });
         for (j, h) in hits.iter().enumerate() {
             let hit = h.is_hit();
             p.t[j] = if hit {
-                (f64::from(h.t) / lens[j]) as f32
+                (f64::from(h.t) / batch.length(p.start + j)) as f32
             } else {
                 f32::INFINITY
             };
@@ -282,6 +333,7 @@ pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, points: bool, normals
                 out.copy_from_slice(&normal);
             }
         }
+        BUFFERS.with_borrow_mut(|b| b.hits = hits);
     };
     if pieces.len() == 1 {
         pieces.into_iter().for_each(work);
@@ -314,9 +366,9 @@ pub fn occluded(scene: &Scene, batch: &Batch, mode: Mode) -> Vec<bool> {
     let c = batch.pieces();
     let config = stream_config(mode);
     for_chunks(&mut out, c, |k, out| {
-        let rays: Vec<Ray> = (k * c..k * c + out.len()).map(|i| batch.ray(i).0).collect();
-        let mut scratch = vec![0u64; stream::scratch_words(rays.len())];
-        let _ = stream::occluded(scene, &config, &rays, out, &mut scratch);
+        with_rays(batch, k * c..k * c + out.len(), |b| {
+            let _ = stream::occluded(scene, &config, &b.rays, out, &mut b.scratch);
+        });
     });
     out
 }
