@@ -90,7 +90,9 @@ class Open3D:
         self.build_s, self.scene = timed(build)
 
     def trace(self, o, d, lo, hi):
-        # Open3D has no per-ray interval: tmin is 0 and tmax inf in the protocol's rays.
+        # Open3D has no per-ray interval: the origin moves to tmin (the diffuse rays' offset off
+        # the surface they leave); tmax is inf in the protocol's rays.
+        o = (o + lo[:, None] * d).astype(np.float32)
         rays = self.o3d.core.Tensor(np.ascontiguousarray(np.concatenate([o, d], axis=1)))
         ids = self.scene.cast_rays(rays, nthreads=self.threads)["primitive_ids"].numpy()
         return np.where(ids == self.scene.INVALID_ID, -1, ids.astype(np.int64))
@@ -116,6 +118,8 @@ class Embreex:
         self.build_s, self.scene = timed(build)
 
     def trace(self, o, d, lo, hi):
+        # embreex's run takes no interval: the origin moves to tmin, as for Open3D.
+        o = (o + lo[:, None] * d).astype(np.float32)
         return self.scene.run(o, d).astype(np.int64)
 
     def contains(self, p):
