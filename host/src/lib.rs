@@ -58,6 +58,7 @@ pub mod closed;
 #[cfg(feature = "cli")]
 pub mod converge;
 pub mod counts;
+pub mod crossings;
 pub mod description;
 pub mod f64ref;
 pub mod flat;

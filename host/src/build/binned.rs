@@ -172,7 +172,7 @@ pub fn best_split(
 const CHUNK: usize = 16 * 1024;
 
 fn count(refs: &[Ref], grid: &Grid, parallel: bool) -> Bins {
-    #[cfg(feature = "cli")]
+    #[cfg(feature = "parallel")]
     if parallel && refs.len() >= 4 * CHUNK {
         use rayon::prelude::*;
         return refs

@@ -294,14 +294,14 @@ fn build_node(
     }
 }
 
-/// Runs `a` and `b`, on the rayon pool when `parallel` (and the `cli` feature, which brings
+/// Runs `a` and `b`, on the rayon pool when `parallel` (and the `parallel` feature, which brings
 /// rayon, is on), else one after the other on this thread (the WASM build: one thread).
 fn join<A: Send, B: Send>(
     parallel: bool,
     a: impl FnOnce() -> A + Send,
     b: impl FnOnce() -> B + Send,
 ) -> (A, B) {
-    #[cfg(feature = "cli")]
+    #[cfg(feature = "parallel")]
     if parallel {
         return rayon::join(a, b);
     }

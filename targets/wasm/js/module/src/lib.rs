@@ -17,13 +17,13 @@
 //! [`kdj_raycast_many`], [`kdj_intersect_all`]): JavaScript's views of `memory.buffer` must be
 //! made again after those.
 
-mod all;
 mod memory;
 pub mod mesh;
 mod unit;
 
 use core::cell::RefCell;
 use glam::Vec3;
+use kdray::crossings as all;
 use kdray::flat::{Layout, Leaves};
 use kdray_core::format::contents;
 use kdray_core::traverse::Mode;
@@ -474,7 +474,7 @@ pub extern "C" fn kdj_raycast_many(
     })
 }
 
-/// Every hit of one ray in `(tmin, tmax)`, sorted by t (`all.rs`: in watertight mode exact on
+/// Every hit of one ray in `(tmin, tmax)`, sorted by t (`kdray::crossings`: in watertight mode exact on
 /// shared edges and vertices, so the count's parity is inside/outside for a closed mesh).
 /// Returns the count; the hits are at [`kdj_all`], 5 words each: f32 t, u32 triangle (input
 /// order), f32 u, f32 v, i32 facing (+1: the triangle's front faces the ray's origin).

@@ -1,5 +1,6 @@
-//! Every hit along a ray (`scene.intersectAll`, `scene.crossings`), for point-in-mesh tests by
-//! parity: with the watertight kernel a ray through an edge or a vertex that triangles share
+//! Every hit along a ray, for point-in-mesh tests by parity (the npm package's
+//! `scene.intersectAll`, the Python package's `intersect_all`, `count_intersections` and
+//! `contains`): with the watertight kernel a ray through an edge or a vertex that triangles share
 //! must be counted once per crossing of the surface, not once per triangle (the peers' double
 //! counts, or none, are a long-standing complaint).
 //!

@@ -1,0 +1,102 @@
+"""Type stubs of :mod:`kdray` (docstrings and examples: kdray/__init__.py)."""
+
+import os
+from typing import Any, NamedTuple, Optional, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION"]
+
+CONTAINS_DIRECTION: Tuple[float, float, float]
+
+_Path = Union[str, "os.PathLike[str]"]
+_Floats = npt.ArrayLike
+
+class Hits(NamedTuple):
+    t: npt.NDArray[np.float32]
+    prim: npt.NDArray[np.int64]
+    u: npt.NDArray[np.float32]
+    v: npt.NDArray[np.float32]
+    points: Optional[npt.NDArray[np.float32]] = ...
+    normals: Optional[npt.NDArray[np.float32]] = ...
+
+class AllHits(NamedTuple):
+    ray: npt.NDArray[np.int64]
+    t: npt.NDArray[np.float32]
+    prim: npt.NDArray[np.int64]
+
+class Scene:
+    watertight: bool
+    def __init__(
+        self,
+        vertices: _Floats,
+        faces: Optional[npt.ArrayLike] = None,
+        *,
+        watertight: bool = False,
+        threads: Optional[int] = None,
+        layout: str = "nodes",
+        leaves: str = "groups",
+    ) -> None: ...
+    @classmethod
+    def load(
+        cls,
+        path: _Path,
+        *,
+        watertight: bool = False,
+        threads: Optional[int] = None,
+        layout: str = "nodes",
+        leaves: str = "groups",
+    ) -> "Scene": ...
+    @classmethod
+    def from_bytes(
+        cls, data: Union[bytes, bytearray, memoryview], *, watertight: bool = False
+    ) -> "Scene": ...
+    def to_bytes(self) -> bytes: ...
+    def save(self, path: _Path) -> None: ...
+    @property
+    def info(self) -> dict[str, Any]: ...
+    def intersect(
+        self,
+        origins: _Floats,
+        directions: _Floats,
+        tmin: _Floats = 0.0,
+        tmax: _Floats = ...,
+        *,
+        points: bool = False,
+        normals: bool = False,
+        threads: Optional[int] = None,
+    ) -> Hits: ...
+    def raycast(
+        self, origin: npt.ArrayLike, direction: npt.ArrayLike, tmin: float = 0.0, tmax: float = ...
+    ) -> Tuple[float, int, float, float]: ...
+    def occluded(
+        self,
+        origins: _Floats,
+        directions: _Floats,
+        tmin: _Floats = 0.0,
+        tmax: _Floats = ...,
+        *,
+        threads: Optional[int] = None,
+    ) -> npt.NDArray[np.bool_]: ...
+    def count_intersections(
+        self,
+        origins: _Floats,
+        directions: _Floats,
+        tmin: _Floats = 0.0,
+        tmax: _Floats = ...,
+        *,
+        threads: Optional[int] = None,
+    ) -> npt.NDArray[np.int64]: ...
+    def intersect_all(
+        self,
+        origins: _Floats,
+        directions: _Floats,
+        tmin: _Floats = 0.0,
+        tmax: _Floats = ...,
+        *,
+        threads: Optional[int] = None,
+    ) -> AllHits: ...
+    def contains(
+        self, points: _Floats, *, threads: Optional[int] = None
+    ) -> npt.NDArray[np.bool_]: ...

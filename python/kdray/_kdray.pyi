@@ -1,0 +1,41 @@
+"""The extension module behind :mod:`kdray` (Rust: python/src/). Called by kdray/__init__.py
+with arrays it has checked and converted: C-contiguous float32 rays (one row, shared, or n),
+int64 faces. Not a public API."""
+
+from typing import Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+CONTAINS_DIRECTION: Tuple[float, float, float]
+
+F32 = npt.NDArray[np.float32]
+I64 = npt.NDArray[np.int64]
+# origins, directions (k, 3), tmin, tmax (k,) with k = 1 or n, n, the batch's shape.
+Rays = Tuple[F32, F32, F32, F32, int, Tuple[int, ...]]
+
+class Tree:
+    @staticmethod
+    def build(
+        vertices: F32, faces: Optional[I64], layout: str, leaves: str, threads: Optional[int]
+    ) -> "Tree": ...
+    @staticmethod
+    def load(path: str, layout: str, leaves: str, threads: Optional[int]) -> "Tree": ...
+    @staticmethod
+    def from_words(words: npt.NDArray[np.uint32]) -> "Tree": ...
+    def to_bytes(self) -> bytes: ...
+    def save(self, path: str) -> None: ...
+    def info(self) -> dict: ...
+    def raycast(
+        self, origin: Tuple[float, float, float], direction: Tuple[float, float, float],
+        tmin: float, tmax: float, watertight: bool,
+    ) -> Tuple[float, int, float, float]: ...
+    def intersect(
+        self, rays: Rays, watertight: bool, points: bool, normals: bool, threads: Optional[int]
+    ) -> Tuple[F32, I64, F32, F32, Optional[F32], Optional[F32]]: ...
+    def occluded(
+        self, rays: Rays, watertight: bool, threads: Optional[int]
+    ) -> npt.NDArray[np.bool_]: ...
+    def count(self, rays: Rays, threads: Optional[int]) -> I64: ...
+    def all(self, rays: Rays, threads: Optional[int]) -> Tuple[I64, F32, I64]: ...
+    def contains(self, points: F32, threads: Optional[int]) -> npt.NDArray[np.bool_]: ...

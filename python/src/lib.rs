@@ -1,0 +1,410 @@
+//! # kdray-python
+//!
+//! The extension module `kdray._kdray` behind the Python package `kdray` (`python/kdray/`): the
+//! host library's loaders, SAH builder and serializer, and `kdray-core`'s walks, over numpy
+//! arrays. The package's Python layer (`kdray/__init__.py`) checks types and shapes, converts
+//! dtypes once (float32 rays, int64 faces) and broadcasts; this module takes the arrays as they
+//! are then (read in place, C-contiguous), checks their values, and does the work with the GIL
+//! released, on rayon's pool (all cores, or a pool of `threads`).
+//!
+//! Every failure is a `ValueError` naming the argument and the problem; the Python layer raises
+//! the `TypeError`s.
+
+mod mesh;
+mod owned;
+mod rays;
+
+use kdray::flat::{self, Layout, Leaves};
+use kdray_core::traverse::Mode;
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use owned::{Options, Owned};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use rayon::ThreadPool;
+use rays::Batch;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+fn value_error(msg: impl Into<String>) -> PyErr {
+    PyValueError::new_err(msg.into())
+}
+
+/// Runs `f` on a pool of `threads` threads (kept for the next call with as many), or on rayon's
+/// global pool (one thread a core) for `None`.
+fn on_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    static POOLS: Mutex<Vec<(usize, Arc<ThreadPool>)>> = Mutex::new(Vec::new());
+    let Some(n) = threads else {
+        return Ok(f());
+    };
+    let pool = {
+        let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
+        match pools.iter().find(|(k, _)| *k == n) {
+            Some((_, p)) => p.clone(),
+            None => {
+                let p = rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| value_error(format!("threads={n}: {e}")))?;
+                let p = Arc::new(p);
+                pools.push((n, p.clone()));
+                p
+            }
+        }
+    };
+    Ok(pool.install(f))
+}
+
+fn options(layout: &str, leaves: &str, threads: Option<usize>) -> PyResult<Options> {
+    let layout = match layout {
+        "nodes" => Layout::Nodes,
+        "blocked" => Layout::Blocked,
+        _ => {
+            return Err(value_error(format!(
+                "layout={layout:?}: it must be 'nodes' or 'blocked'"
+            )));
+        }
+    };
+    let leaves = match leaves {
+        "list" => Leaves::List,
+        "groups" => Leaves::Groups,
+        _ => {
+            return Err(value_error(format!(
+                "leaves={leaves:?}: it must be 'groups' or 'list'"
+            )));
+        }
+    };
+    Ok(Options {
+        layout,
+        leaves,
+        parallel: threads != Some(1),
+    })
+}
+
+fn slice<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
+    a: &'a numpy::PyReadonlyArray<'_, T, D>,
+    name: &str,
+) -> PyResult<&'a [T]> {
+    a.as_slice()
+        .map_err(|_| value_error(format!("{name} is not C-contiguous")))
+}
+
+/// A validated kd-tree over a triangle mesh (the package's `kdray.Scene` wraps it).
+#[pyclass(frozen, module = "kdray._kdray")]
+struct Tree {
+    owned: Owned,
+}
+
+/// A batch of rays as the Python layer passes it (`kdray._Batch`, a tuple): origins and
+/// directions `(k, 3)`, `tmin` and `tmax` `(k,)` (C-contiguous float32, `k` = 1 or `n`), the
+/// number of rays `n`, and the batch's shape (for the Python layer).
+#[derive(FromPyObject)]
+struct RayArgs<'py>(
+    PyReadonlyArray2<'py, f32>,
+    PyReadonlyArray2<'py, f32>,
+    PyReadonlyArray1<'py, f32>,
+    PyReadonlyArray1<'py, f32>,
+    usize,
+    #[allow(dead_code)] Bound<'py, PyAny>,
+);
+
+impl RayArgs<'_> {
+    /// The arrays read in place, their lengths checked.
+    fn batch(&self) -> PyResult<Batch<'_>> {
+        let batch = Batch {
+            origins: slice(&self.0, "origins")?,
+            directions: slice(&self.1, "directions")?,
+            tmin: slice(&self.2, "tmin")?,
+            tmax: slice(&self.3, "tmax")?,
+            n: self.4,
+        };
+        batch.check_lengths().map_err(value_error)?;
+        Ok(batch)
+    }
+}
+
+/// Checks `batch`'s values, then runs `f` on the pool of `threads`, without the GIL.
+fn traced<T: Send>(
+    py: Python<'_>,
+    threads: Option<usize>,
+    batch: &Batch,
+    f: impl FnOnce() -> T + Send,
+) -> PyResult<T> {
+    let run = || -> Result<T, String> {
+        batch.check_values()?;
+        Ok(f())
+    };
+    if batch.n <= rays::CHUNK {
+        // A few rays: on this thread, which is faster than handing them to a pool.
+        return py.detach(run).map_err(value_error);
+    }
+    py.detach(|| on_pool(threads, run))?.map_err(value_error)
+}
+
+fn mode(watertight: bool) -> Mode {
+    if watertight {
+        Mode::Watertight
+    } else {
+        Mode::Fast
+    }
+}
+
+#[pymethods]
+impl Tree {
+    /// Builds the tree over `vertices` (`(N, 3)` float32) and `faces` (`(M, 3)` int64, or none).
+    #[staticmethod]
+    #[pyo3(signature = (vertices, faces, layout, leaves, threads))]
+    fn build(
+        py: Python<'_>,
+        vertices: PyReadonlyArray2<'_, f32>,
+        faces: Option<PyReadonlyArray2<'_, i64>>,
+        layout: &str,
+        leaves: &str,
+        threads: Option<usize>,
+    ) -> PyResult<Self> {
+        let options = options(layout, leaves, threads)?;
+        let v = slice(&vertices, "vertices")?;
+        let f = faces.as_ref().map(|f| slice(f, "faces")).transpose()?;
+        let owned = py.detach(|| {
+            on_pool(threads, || {
+                let tris = mesh::triangles(v, f)?;
+                owned::build(tris, options)
+            })
+        })?;
+        Ok(Self {
+            owned: owned.map_err(value_error)?,
+        })
+    }
+
+    /// Loads a `.kdt` (validated), or a mesh file (`.ply`, `.ply.gz`, `.obj`, `.tri`) and builds it.
+    #[staticmethod]
+    #[pyo3(signature = (path, layout, leaves, threads))]
+    fn load(
+        py: Python<'_>,
+        path: PathBuf,
+        layout: &str,
+        leaves: &str,
+        threads: Option<usize>,
+    ) -> PyResult<Self> {
+        let options = options(layout, leaves, threads)?;
+        let is_kdt = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("kdt"));
+        let owned = py.detach(|| -> Result<Owned, String> {
+            if is_kdt {
+                let words = flat::read_kdt(&path).map_err(|e| e.to_string())?;
+                Owned::from_words(&words).map_err(|e| format!("{}: {e}", path.display()))
+            } else {
+                let geom = kdray::input::load_input(&path).map_err(|e| e.to_string())?;
+                if geom.triangles.is_empty() {
+                    return Err(format!("{}: the mesh has no triangles", path.display()));
+                }
+                on_pool(threads, || owned::build_geometry(&geom, options))
+                    .map_err(|e| e.to_string())?
+                    .map_err(|e| format!("{}: {e}", path.display()))
+            }
+        });
+        Ok(Self {
+            owned: owned.map_err(value_error)?,
+        })
+    }
+
+    /// A tree from the words of a `.kdt` (validated): its bytes viewed as little-endian u32.
+    #[staticmethod]
+    fn from_words(py: Python<'_>, words: PyReadonlyArray1<'_, u32>) -> PyResult<Self> {
+        let words = slice(&words, "data")?;
+        let owned = py.detach(|| Owned::from_words(words));
+        Ok(Self {
+            owned: owned.map_err(|e| value_error(format!("data: {e}")))?,
+        })
+    }
+
+    /// The `.kdt` bytes.
+    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        let words = self.owned.words();
+        PyBytes::new_with(py, words.len() * 4, |buf| {
+            for (b, w) in buf.chunks_exact_mut(4).zip(words) {
+                b.copy_from_slice(&w.to_le_bytes());
+            }
+            Ok(())
+        })
+        .expect("writing bytes cannot fail")
+    }
+
+    /// Writes the `.kdt` file (whole or not at all).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        py.detach(|| flat::write_kdt(&path, self.owned.words()))
+            .map_err(|e| value_error(e.to_string()))
+    }
+
+    /// Counts, bounds and sizes.
+    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let scene = self.owned.scene();
+        let d = PyDict::new(py);
+        let [lo, hi] = scene.bounds();
+        d.set_item("triangles", scene.tri_count())?;
+        d.set_item("nodes", scene.node_count())?;
+        d.set_item("depth", scene.depth())?;
+        d.set_item("bounds", (lo.to_array(), hi.to_array()))?;
+        d.set_item("bytes", self.owned.words().len() * 4)?;
+        d.set_item(
+            "layout",
+            if scene.blocks().is_empty() {
+                "nodes"
+            } else {
+                "blocked"
+            },
+        )?;
+        d.set_item("leaves", if scene.has_groups() { "groups" } else { "list" })?;
+        d.set_item("build_ms", scene.build_ms())?;
+        Ok(d)
+    }
+
+    /// One ray's closest hit, `(t, prim, u, v)`, without arrays (and with the GIL: it is short).
+    #[pyo3(signature = (origin, direction, tmin, tmax, watertight))]
+    fn raycast(
+        &self,
+        origin: [f32; 3],
+        direction: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+        watertight: bool,
+    ) -> PyResult<(f32, i64, f32, f32)> {
+        let batch = Batch {
+            origins: &origin,
+            directions: &direction,
+            tmin: &[tmin],
+            tmax: &[tmax],
+            n: 1,
+        };
+        batch.check_values().map_err(value_error)?;
+        Ok(rays::closest_one(
+            self.owned.scene(),
+            &batch,
+            mode(watertight),
+        ))
+    }
+
+    /// Closest hits: `(t, prim, u, v, points or None, normals or None)`.
+    #[allow(clippy::type_complexity)]
+    #[pyo3(signature = (rays, watertight, points, normals, threads))]
+    fn intersect<'py>(
+        &self,
+        py: Python<'py>,
+        rays: RayArgs<'py>,
+        watertight: bool,
+        points: bool,
+        normals: bool,
+        threads: Option<usize>,
+    ) -> PyResult<(
+        Bound<'py, PyArray1<f32>>,
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<f32>>,
+        Bound<'py, PyArray1<f32>>,
+        Option<Bound<'py, PyArray1<f32>>>,
+        Option<Bound<'py, PyArray1<f32>>>,
+    )> {
+        let batch = rays.batch()?;
+        let scene = self.owned.scene();
+        let out = traced(py, threads, &batch, || {
+            rays::intersect(scene, &batch, mode(watertight), points, normals)
+        })?;
+        Ok((
+            PyArray1::from_vec(py, out.t),
+            PyArray1::from_vec(py, out.prim),
+            PyArray1::from_vec(py, out.u),
+            PyArray1::from_vec(py, out.v),
+            out.points.map(|p| PyArray1::from_vec(py, p)),
+            out.normals.map(|p| PyArray1::from_vec(py, p)),
+        ))
+    }
+
+    /// Whether anything lies along each ray.
+    #[pyo3(signature = (rays, watertight, threads))]
+    fn occluded<'py>(
+        &self,
+        py: Python<'py>,
+        rays: RayArgs<'py>,
+        watertight: bool,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let batch = rays.batch()?;
+        let scene = self.owned.scene();
+        let out = traced(py, threads, &batch, || {
+            rays::occluded(scene, &batch, mode(watertight))
+        })?;
+        Ok(PyArray1::from_vec(py, out))
+    }
+
+    /// Exact crossings per ray.
+    #[pyo3(signature = (rays, threads))]
+    fn count<'py>(
+        &self,
+        py: Python<'py>,
+        rays: RayArgs<'py>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let batch = rays.batch()?;
+        let scene = self.owned.scene();
+        let out = traced(py, threads, &batch, || rays::count(scene, &batch))?;
+        Ok(PyArray1::from_vec(py, out))
+    }
+
+    /// Every exact crossing: `(ray, t, prim)`, flattened.
+    #[allow(clippy::type_complexity)]
+    #[pyo3(signature = (rays, threads))]
+    fn all<'py>(
+        &self,
+        py: Python<'py>,
+        rays: RayArgs<'py>,
+        threads: Option<usize>,
+    ) -> PyResult<(
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<f32>>,
+        Bound<'py, PyArray1<i64>>,
+    )> {
+        let batch = rays.batch()?;
+        let scene = self.owned.scene();
+        let (ray, t, prim) = traced(py, threads, &batch, || rays::all(scene, &batch))?;
+        Ok((
+            PyArray1::from_vec(py, ray),
+            PyArray1::from_vec(py, t),
+            PyArray1::from_vec(py, prim),
+        ))
+    }
+
+    /// Whether each point lies inside (odd exact crossings along +x).
+    #[pyo3(signature = (points, threads))]
+    fn contains<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let p = slice(&points, "points")?;
+        let scene = self.owned.scene();
+        let out = py
+            .detach(|| {
+                on_pool(threads, || {
+                    if let Some(i) = p.iter().position(|x| !x.is_finite()) {
+                        return Err(format!(
+                            "points[{}] is {}: every coordinate must be finite",
+                            i / 3,
+                            mesh::row(&p[i / 3 * 3..i / 3 * 3 + 3])
+                        ));
+                    }
+                    Ok(rays::contains(scene, p))
+                })
+            })?
+            .map_err(value_error)?;
+        Ok(PyArray1::from_vec(py, out))
+    }
+}
+
+/// The extension module.
+#[pymodule]
+fn _kdray(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Tree>()?;
+    m.add("CONTAINS_DIRECTION", rays::CONTAINS_DIRECTION)?;
+    Ok(())
+}

@@ -1,0 +1,95 @@
+//! A validated scene together with the words it views: the words are checked once
+//! ([`Scene::from_words`] is a pass over all of them, too slow per call) and the [`Scene`] kept
+//! next to them, in one self-referential cell (`self_cell`, so without `unsafe` here).
+//!
+//! Where the words come from: a mesh built by the host library's SAH builder and serializer
+//! ([`build`]: what `kdray build` does), a `.kdt` file or its bytes ([`Owned::from_words`]).
+
+use glam::Vec3;
+use kdray::Geometry;
+use kdray::build::{self, BuildParams};
+use kdray::flat::{self, Aligned, Layout, Leaves};
+use kdray_core::Scene;
+use kdray_core::format::contents;
+use self_cell::self_cell;
+
+self_cell!(
+    /// The words of a tree (64-byte aligned: the blocks section on whole cache lines) and the
+    /// validated scene that borrows them.
+    pub struct Owned {
+        owner: Aligned,
+        #[covariant]
+        dependent: Scene,
+    }
+);
+
+impl Owned {
+    /// Validates `words` and keeps them. Scenes with spheres are refused: this package traces
+    /// triangle meshes (its answers name triangles; its `contains` counts triangle crossings).
+    ///
+    /// # Errors
+    /// What validation finds wrong (the core's `FormatError`), or spheres.
+    pub fn from_words(words: &[u32]) -> Result<Self, String> {
+        let owned = Owned::try_new(Aligned::new(words), |w| Scene::from_words(w))
+            .map_err(|e| format!("not a valid kd-tree: {e}"))?;
+        if owned.scene().contents() & contents::SPHERES != 0 {
+            return Err(
+                "the scene holds spheres: this package traces triangle meshes only".to_string(),
+            );
+        }
+        Ok(owned)
+    }
+
+    pub fn scene(&self) -> &Scene<'_> {
+        self.borrow_dependent()
+    }
+
+    pub fn words(&self) -> &[u32] {
+        self.borrow_owner()
+    }
+}
+
+/// How to build: the stored layout and leaves, and whether subtrees are built on the rayon pool.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    pub layout: Layout,
+    pub leaves: Leaves,
+    pub parallel: bool,
+}
+
+/// Builds the SAH kd-tree over `triangles` (input order), serializes it and validates it as a
+/// loaded file would be.
+///
+/// # Errors
+/// What the builder or the serializer refuses (a triangle too large for the kernels' f32, a tree
+/// too large for the format).
+pub fn build(triangles: Vec<[Vec3; 3]>, options: Options) -> Result<Owned, String> {
+    if triangles.is_empty() {
+        return Err("the mesh has no triangles".to_string());
+    }
+    let geom = Geometry {
+        triangles,
+        ..Geometry::default()
+    };
+    build_geometry(&geom, options)
+}
+
+/// [`build`] for a loaded [`Geometry`] (a mesh file), which must hold triangles only.
+///
+/// # Errors
+/// As [`build`]; spheres.
+pub fn build_geometry(geom: &Geometry, options: Options) -> Result<Owned, String> {
+    if !geom.spheres.is_empty() {
+        return Err("the scene holds spheres: this package traces triangle meshes only".into());
+    }
+    let params = BuildParams {
+        parallel: options.parallel,
+        ..options.leaves.build_params()
+    };
+    let start = std::time::Instant::now();
+    let tree = build::build(geom, &params, None)?;
+    let ms = start.elapsed().as_secs_f32() * 1e3;
+    let words = flat::serialize_as(&tree, geom, ms, options.layout, options.leaves)?;
+    Owned::from_words(&words)
+        .map_err(|e| format!("the built tree does not validate ({e}): please report this mesh"))
+}
