@@ -353,6 +353,6 @@ fn damage_to_a_block_is_a_checksum_error_and_version_6_asks_for_a_rebuild() {
     seal(&mut w);
     let err = Scene::from_words(&w).map(|_| ()).unwrap_err();
     assert_eq!(err, FormatError::UnsupportedVersion(6));
-    assert_eq!(VERSION, 9);
+    assert_eq!(VERSION, 10);
     assert!(err.to_string().contains("rebuild"), "{err}");
 }
