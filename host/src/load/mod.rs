@@ -14,7 +14,7 @@ mod obj;
 mod ply;
 mod tri;
 
-pub use ply::MAX_INFLATED;
+pub use ply::{MAX_INFLATED, inflated_size};
 pub use tri::{decode_tri, encode_tri};
 
 use crate::error::{Error, Result};
