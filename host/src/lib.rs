@@ -68,3 +68,4 @@ pub mod plot;
 #[cfg(feature = "cli")]
 pub mod progressive;
 pub mod rays;
+pub mod reach;

@@ -89,7 +89,7 @@ pub struct SceneFile {
 /// 1e10, a million samples' squares sum to 1e26, twelve orders of magnitude inside f32's 3.4e38
 /// for what lights' geometry and many bounces multiply them by. (Daylight's sun is about 2e7 in
 /// watts per square metre and steradian.) A render whose sums overflow anyway is refused
-/// ([`crate::progressive::Film::overflowed`]).
+/// (`kdray::progressive::Film::overflowed`).
 pub const MAX_RADIANCE: f32 = 1e10;
 
 /// Whether `c` is a radiance a scene may give: in `[0, MAX_RADIANCE]` (so not NaN).

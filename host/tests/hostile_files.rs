@@ -401,3 +401,76 @@ fn files_larger_than_half_of_memory_are_streamed() {
     assert!(!stderr(&run).contains("panicked"));
     assert!(!out.exists());
 }
+
+/// The triangle `(−k, −k, 0), (k, −k, 0), (0, k, 0)` as a `.tri` file.
+fn big_triangle(d: &Path, name: &str, k: f32) -> PathBuf {
+    let mut b = 1u32.to_le_bytes().to_vec();
+    for v in [-k, -k, 0.0, k, -k, 0.0, 0.0, k, 0.0] {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    let p = d.join(name);
+    std::fs::write(&p, b).unwrap();
+    p
+}
+
+/// Triangles far from the ray origin: the (±3e12, …) triangle, which `build` accepted
+/// and the rays of `kdray rays` all missed (f32 products past 3.4e38), is refused naming the
+/// triangle and the bound; at ±1e12 the same rays hit in both modes; a ±1e9 triangle is hit from
+/// 1e18 away and a ray from 1e20 is refused naming the ray (it missed).
+#[test]
+fn far_triangles_are_hit_or_refused() {
+    let d = dir("far-triangles");
+    let huge = big_triangle(&d, "huge.tri", 3e12);
+    let kdt = d.join("huge.kdt");
+    let run = kdray(&["build", s(&huge), "-o", s(&kdt)]);
+    fails(
+        &run,
+        1,
+        &["huge.tri", "triangle 0", "twice the scene's diagonal"],
+    );
+
+    let big = big_triangle(&d, "big.tri", 1e12);
+    let rays = d.join("big.rays");
+    succeeds(&kdray(&[
+        "rays",
+        s(&big),
+        "--size",
+        "64x64",
+        "-o",
+        s(&rays),
+    ]));
+    let hits = d.join("big.hits");
+    for mode in [None, Some("--watertight")] {
+        let mut args = vec!["trace", s(&big), "--rays", s(&rays), "--out", s(&hits)];
+        args.extend(mode);
+        let out = succeeds(&kdray(&args));
+        // The triangle covers 882 of the framing camera's 4,096 pixels at every scale that
+        // does not overflow (1e9, 1e11: the figure).
+        assert!(out.contains("hits=882 "), "{mode:?}: {out}");
+    }
+
+    let small = big_triangle(&d, "small.tri", 1e9);
+    let ray = |z: f32| {
+        let mut b = Vec::new();
+        for v in [0.0f32, 0.0, z, 0.0, 0.0, -1.0, 0.0, f32::INFINITY] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b
+    };
+    let near = d.join("near.rays");
+    std::fs::write(&near, ray(1e18)).unwrap();
+    let out = succeeds(&kdray(&[
+        "trace",
+        s(&small),
+        "--rays",
+        s(&near),
+        "--out",
+        s(&hits),
+        "--watertight",
+    ]));
+    assert!(out.contains("hits=1 "), "{out}");
+    let far = d.join("far.rays");
+    std::fs::write(&far, ray(1e20)).unwrap();
+    let run = kdray(&["trace", s(&small), "--rays", s(&far), "--out", s(&hits)]);
+    fails(&run, 1, &["far.rays", "ray 0", "overflow"]);
+}

@@ -133,6 +133,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
     // Blocks on cache lines (see `flat::Aligned`).
     let words = kdray::flat::Aligned::new(&words);
     let scene = Scene::from_words(&words).map_err(|e| Error::new(&args.input, e.to_string()))?;
+    kdray::reach::check_rays(&args.rays, &scene, &rays)?;
     let pool = pool(&args.input, args.threads)?;
     let mode = if args.watertight {
         Mode::Watertight
