@@ -281,12 +281,11 @@ fn scenes_amplifying_a_small_mesh_are_refused_before_loading() {
     for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
         ply.extend_from_slice(&v.to_le_bytes());
     }
-    for _ in 0..faces {
-        ply.push(3);
-        for i in 0..3i32 {
-            ply.extend_from_slice(&i.to_le_bytes());
-        }
+    let mut face = vec![3u8];
+    for i in 0..3i32 {
+        face.extend_from_slice(&i.to_le_bytes());
     }
+    ply.extend(face.repeat(faces));
     let mut gz = GzEncoder::new(Vec::new(), Compression::best());
     gz.write_all(&ply).unwrap();
     std::fs::write(d.join("small.ply.gz"), gz.finish().unwrap()).unwrap();
