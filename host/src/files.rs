@@ -69,8 +69,8 @@ fn folder(path: &Path) -> &Path {
 /// or for root), so that a render of an hour does not end in "permission denied".
 ///
 /// # Errors
-/// `path` is an existing directory, ends in a separator, or its parent is missing, not a
-/// directory or not writable.
+/// `path` is an existing directory or other file that is not a regular one (a FIFO, a device),
+/// ends in a separator, or its parent is missing, not a directory or not writable.
 pub fn check_output(path: &Path) -> Result<()> {
     let text = path.as_os_str().to_string_lossy();
     if path.is_dir() || text.ends_with('/') || text.is_empty() {
@@ -79,12 +79,25 @@ pub fn check_output(path: &Path) -> Result<()> {
             "is a directory: the output must name a file",
         ));
     }
+    if let Ok(meta) = std::fs::metadata(path)
+        && !meta.is_file()
+    {
+        // Renaming the finished output over it would put a regular file in its place (for
+        // root, even in place of `/dev/null`).
+        return Err(Error::new(
+            path,
+            "exists and is not a regular file (a FIFO, socket or device): \
+             kdray replaces only regular files",
+        ));
+    }
     let parent = folder(path);
     if !parent.is_dir() {
-        let msg = format!(
-            "cannot write here: the directory {} does not exist",
-            parent.display()
-        );
+        let why = if parent.exists() {
+            "is not a directory"
+        } else {
+            "does not exist"
+        };
+        let msg = format!("cannot write here: {} {why}", parent.display());
         return Err(Error::new(path, msg));
     }
     if let Err(e) = temp_in(path) {
@@ -123,15 +136,7 @@ fn place(path: &Path) -> Option<PathBuf> {
 pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
     for (k, &out) in outputs.iter().enumerate() {
         check_output(out)?;
-        if let Some(id) = identity(out)
-            && let Some(input) = inputs.iter().find(|i| identity(i).as_ref() == Some(&id))
-        {
-            let msg = format!(
-                "is the input {}: an output must not overwrite an input",
-                input.display()
-            );
-            return Err(Error::new(out, msg));
-        }
+        check_not_inputs(inputs, &[out])?;
         let here = place(out);
         if let Some(other) = outputs[..k]
             .iter()
@@ -147,6 +152,32 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
+/// How many characters of an output's name its temporary's name repeats: 60, at most 240 bytes
+/// of UTF-8, leaving room for the rest of the temporary's name.
+const TEMP_NAME_CHARS: usize = 60;
+
+/// Refuses an output that is one of `inputs` (the same file by device and inode), e.g. a mesh
+/// that a scene file includes, known only once the scene is read.
+///
+/// # Errors
+/// The first output at fault, naming the input it would overwrite.
+pub fn check_not_inputs<P: AsRef<Path>>(inputs: &[P], outputs: &[&Path]) -> Result<()> {
+    for &out in outputs {
+        if let Some(id) = identity(out)
+            && let Some(input) = inputs
+                .iter()
+                .find(|i| identity(i.as_ref()).as_ref() == Some(&id))
+        {
+            let msg = format!(
+                "is the input {}: an output must not overwrite an input",
+                input.as_ref().display()
+            );
+            return Err(Error::new(out, msg));
+        }
+    }
+    Ok(())
+}
+
 /// A new temporary file next to `path`, created exclusively (`O_CREAT | O_EXCL` under a random
 /// name, by the `tempfile` crate) so that nothing planted at its name (a symbolic link, a FIFO)
 /// is followed or written; removed when dropped.
@@ -154,8 +185,12 @@ fn temp_in(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     let name = path
         .file_name()
         .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    // At most `TEMP_NAME_CHARS` of the name, so that the temporary's name (`.`, the name, `.`,
+    // 6 random characters, `.tmp`) stays within a file system's 255 bytes however long the
+    // output's own name is.
+    let short: String = name.chars().take(TEMP_NAME_CHARS).collect();
     let mut builder = tempfile::Builder::new();
-    let prefix = format!(".{name}.");
+    let prefix = format!(".{short}.");
     builder.prefix(&prefix).suffix(".tmp");
     // An output is an ordinary file (0666 less the umask, as `File::create` makes it), not the
     // temporary's private 0600.

@@ -69,4 +69,5 @@ pub mod plot;
 #[cfg(feature = "cli")]
 pub mod progressive;
 pub mod rays;
+pub mod reach;
 pub mod wide;

@@ -112,6 +112,15 @@ impl Film {
         (rmse, if mean > 0.0 { rmse / mean } else { 0.0 })
     }
 
+    /// How many pixels' sums (or sums of squares) are not finite: radiance past f32's range,
+    /// which no figure or image should be made from.
+    pub fn overflowed(&self) -> usize {
+        self.sums
+            .iter()
+            .filter(|s| !(s.sum.is_finite() && s.sum_sq.is_finite()))
+            .count()
+    }
+
     /// Samples per pixel, averaged over the film.
     pub fn mean_spp(&self) -> f64 {
         let total: u64 = self.count.iter().map(|&n| u64::from(n)).sum();
@@ -166,7 +175,9 @@ pub fn render<C: Camera + Sync>(
                 break;
             }
             let (_, rel) = film.estimated_error();
-            if plan.stop.noise.is_some_and(|e| rel < e) {
+            // A radiance past f32's range makes the estimate infinite or NaN, never below the
+            // target: stop (the caller refuses such a film, [`Film::overflowed`]).
+            if plan.stop.noise.is_some_and(|e| rel < e) || !rel.is_finite() {
                 break;
             }
         }

@@ -23,40 +23,82 @@ pub const HIT_BYTES: usize = 16;
 /// ahead; 1e-3 leaves room for any writer's rounding and moves that threshold by 0.2 % at most.
 pub const DIR_LENGTH_TOLERANCE: f32 = 1e-3;
 
+/// How many `record`-byte records of `what` (e.g. "rays") a file of `bytes` bytes holds.
+///
+/// # Errors
+/// A length that is not a whole number of records.
+pub fn record_count(path: &Path, bytes: u64, record: usize, what: &str) -> Result<u64> {
+    let record = record as u64;
+    if !bytes.is_multiple_of(record) {
+        let msg =
+            format!("{bytes} bytes is not a whole number of {record}-byte {what} (truncated?)");
+        return Err(Error::new(path, msg));
+    }
+    Ok(bytes / record)
+}
+
+/// One ray record.
+pub fn decode_ray(c: &[u8; RAY_BYTES]) -> Ray {
+    let f = |i: usize| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]]);
+    Ray {
+        origin: Vec3::new(f(0), f(1), f(2)),
+        dir: Vec3::new(f(3), f(4), f(5)),
+        tmin: f(6),
+        tmax: f(7),
+    }
+}
+
 /// Decodes a rays file.
 ///
 /// # Errors
 /// A length that is not a whole number of records. The values are not checked here: see
 /// [`check_rays`].
 pub fn decode_rays(path: &Path, bytes: &[u8]) -> Result<Vec<Ray>> {
-    if !bytes.len().is_multiple_of(RAY_BYTES) {
-        return Err(Error::new(
-            path,
-            format!(
-                "{} bytes is not a whole number of {RAY_BYTES}-byte rays (truncated?)",
-                bytes.len()
-            ),
-        ));
-    }
+    record_count(path, bytes.len() as u64, RAY_BYTES, "rays")?;
     Ok(bytes
-        .chunks_exact(RAY_BYTES)
-        .map(|c| {
-            let f =
-                |i: usize| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]]);
-            Ray {
-                origin: Vec3::new(f(0), f(1), f(2)),
-                dir: Vec3::new(f(3), f(4), f(5)),
-                tmin: f(6),
-                tmax: f(7),
-            }
-        })
+        .as_chunks::<RAY_BYTES>()
+        .0
+        .iter()
+        .map(decode_ray)
         .collect())
 }
 
-/// Reads a rays file (a regular file).
+/// Reads a rays file (a regular file) record by record into one allocation (a rays file may be
+/// as large as memory: no second copy), checking each ray ([`check_rays`]) as it comes.
+///
+/// # Errors
+/// As [`record_count`] and [`check_rays`]; the rays do not fit in memory (reserved fallibly:
+/// exit 1 naming the size, not an abort); reading fails.
 pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
-    let bytes = crate::files::read(path)?;
-    decode_rays(path, &bytes)
+    use std::io::Read as _;
+    let file = crate::files::open(path)?;
+    let bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let n = record_count(path, bytes, RAY_BYTES, "rays")?;
+    let mut rays = Vec::new();
+    let reserved = usize::try_from(n)
+        .ok()
+        .is_some_and(|n| rays.try_reserve_exact(n).is_ok());
+    if !reserved {
+        let msg = format!(
+            "{n} rays take {} of memory, which cannot be allocated here (out of memory, or an \
+             address-space limit)",
+            crate::memory::mib(bytes)
+        );
+        return Err(Error::new(path, msg));
+    }
+    let mut records = std::io::BufReader::with_capacity(1 << 16, file);
+    let mut record = [0u8; RAY_BYTES];
+    for i in 0..n {
+        records
+            .read_exact(&mut record)
+            .map_err(|e| Error::io(path, e))?;
+        let ray = decode_ray(&record);
+        if let Some(problem) = ray_problem(&ray) {
+            return Err(Error::new(path, format!("ray {i}: {problem}")));
+        }
+        rays.push(ray);
+    }
+    Ok(rays)
 }
 
 /// What is wrong with one ray of a rays file, if anything: the origin, the direction and `tmin`
@@ -144,37 +186,47 @@ pub fn write_rays(out: &mut impl std::io::Write, rays: &[Ray]) -> std::io::Resul
 /// Encodes hits.
 pub fn encode_hits(hits: &[Hit]) -> Vec<u8> {
     let mut out = Vec::with_capacity(hits.len() * HIT_BYTES);
-    for h in hits {
-        out.extend_from_slice(&h.t.to_le_bytes());
-        out.extend_from_slice(&h.prim.to_le_bytes());
-        out.extend_from_slice(&h.u.to_le_bytes());
-        out.extend_from_slice(&h.v.to_le_bytes());
-    }
+    // Writing to a Vec cannot fail.
+    let _ = write_hits(&mut out, hits);
     out
 }
 
-/// Decodes a hits file.
-pub fn decode_hits(path: &Path, bytes: &[u8]) -> Result<Vec<Hit>> {
-    if !bytes.len().is_multiple_of(HIT_BYTES) {
-        return Err(Error::new(
-            path,
-            format!(
-                "{} bytes is not a whole number of {HIT_BYTES}-byte hits",
-                bytes.len()
-            ),
-        ));
+/// Writes `hits` as [`encode_hits`] encodes them, without a copy in memory.
+///
+/// # Errors
+/// `out`'s.
+pub fn write_hits(out: &mut impl std::io::Write, hits: &[Hit]) -> std::io::Result<()> {
+    for h in hits {
+        out.write_all(&h.t.to_le_bytes())?;
+        out.write_all(&h.prim.to_le_bytes())?;
+        out.write_all(&h.u.to_le_bytes())?;
+        out.write_all(&h.v.to_le_bytes())?;
     }
+    Ok(())
+}
+
+/// One hit record.
+pub fn decode_hit(c: &[u8; HIT_BYTES]) -> Hit {
+    let w = |i: usize| [c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]];
+    Hit {
+        t: f32::from_le_bytes(w(0)),
+        prim: u32::from_le_bytes(w(1)),
+        u: f32::from_le_bytes(w(2)),
+        v: f32::from_le_bytes(w(3)),
+    }
+}
+
+/// Decodes a hits file.
+///
+/// # Errors
+/// A length that is not a whole number of records.
+pub fn decode_hits(path: &Path, bytes: &[u8]) -> Result<Vec<Hit>> {
+    record_count(path, bytes.len() as u64, HIT_BYTES, "hits")?;
     Ok(bytes
-        .chunks_exact(HIT_BYTES)
-        .map(|c| {
-            let w = |i: usize| [c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]];
-            Hit {
-                t: f32::from_le_bytes(w(0)),
-                prim: u32::from_le_bytes(w(1)),
-                u: f32::from_le_bytes(w(2)),
-                v: f32::from_le_bytes(w(3)),
-            }
-        })
+        .as_chunks::<HIT_BYTES>()
+        .0
+        .iter()
+        .map(decode_hit)
         .collect())
 }
 

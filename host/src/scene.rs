@@ -9,6 +9,7 @@
 mod assemble;
 mod camera;
 mod desc;
+mod meshes;
 mod placement;
 
 pub use camera::{CameraDesc, DEFAULT_LENS, Focus, SceneCamera};
@@ -81,6 +82,19 @@ pub struct SceneFile {
     /// Meshes held in the binary, by the `path` a `[[mesh]]` gives: used instead of files (the
     /// built-in default scene's, so that it renders wherever the binary is).
     embedded: &'static [(&'static str, &'static [u8])],
+}
+
+/// The largest emission or background a scene may give, per channel. A pixel's sums of samples
+/// and of their squares are f32 (the core's, bit for bit on every target): with radiance up to
+/// 1e10, a million samples' squares sum to 1e26, twelve orders of magnitude inside f32's 3.4e38
+/// for what lights' geometry and many bounces multiply them by. (Daylight's sun is about 2e7 in
+/// watts per square metre and steradian.) A render whose sums overflow anyway is refused
+/// (`kdray::progressive::Film::overflowed`).
+pub const MAX_RADIANCE: f32 = 1e10;
+
+/// Whether `c` is a radiance a scene may give: in `[0, MAX_RADIANCE]` (so not NaN).
+fn radiance_ok(c: f32) -> bool {
+    (0.0..=MAX_RADIANCE).contains(&c)
 }
 
 /// The built-in default scene's text.
@@ -234,8 +248,11 @@ impl SceneFile {
         if r.width == 0 || r.height == 0 || r.spp == 0 {
             return Err(at_render("width, height and spp must be at least 1"));
         }
-        if !r.background.iter().all(|c| c.is_finite() && *c >= 0.0) {
-            return Err(at_render("background must be finite and non-negative"));
+        if !r.background.iter().all(|&c| radiance_ok(c)) {
+            return Err(at_render(&format!(
+                "background {:?} must be >= 0 and at most {MAX_RADIANCE:e}",
+                r.background
+            )));
         }
         self.check_materials()?;
         self.check_entries()
@@ -249,8 +266,11 @@ impl SceneFile {
                 "the name is used twice".to_string()
             } else if !m.albedo.iter().all(|c| (0.0..=1.0).contains(c)) {
                 format!("albedo {:?} must lie in [0, 1]", m.albedo)
-            } else if !m.emission.iter().all(|c| c.is_finite() && *c >= 0.0) {
-                format!("emission {:?} must be finite and >= 0", m.emission)
+            } else if !m.emission.iter().all(|&c| radiance_ok(c)) {
+                format!(
+                    "emission {:?} must be >= 0 and at most {MAX_RADIANCE:e}",
+                    m.emission
+                )
             } else if !(m.ior.is_finite() && m.ior > 0.0) {
                 format!("ior {} must be finite and > 0", m.ior)
             } else {

@@ -42,7 +42,8 @@
 //!   NaN`), both sides;
 //! - the root box is entered with an explicit per-axis test for zero components and a far distance
 //!   widened by `2γ₃` of its magnitude (pbrt-v3's robust `Bounds3::IntersectP`), so a ray grazing the box is
-//!   not lost to rounding;
+//!   not lost to rounding; a subnormal component, whose `1/d` overflows, is divided by instead
+//!   (`0·∞` would make a ray starting on the box's face NaN there, and lost);
 //! - non-finite rays are a miss before any arithmetic, so nothing can loop on NaN.
 //!
 //! Straddling primitives: a primitive in several leaves may be hit in an earlier leaf at a `t`
@@ -211,7 +212,14 @@ pub fn clip_to_box_in<const ROBUST: bool>(ray: &Ray, bounds: [Vec3; 2]) -> Optio
             continue;
         }
         let inv = 1.0 / d;
-        let (mut near, mut far) = ((lo - o) * inv, (hi - o) * inv);
+        let (mut near, mut far) = if inv.is_finite() {
+            ((lo - o) * inv, (hi - o) * inv)
+        } else {
+            // `d` is subnormal and `1/d` overflowed: `(hi − o)·∞` would be `0·∞ = NaN` for an
+            // origin on the face (and rule the ray out). Divided, each distance is rounded once
+            // from the exact one (`0` on the face), which [`widen`]'s bound covers.
+            ((lo - o) / d, (hi - o) / d)
+        };
         if near > far {
             core::mem::swap(&mut near, &mut far);
         }

@@ -148,7 +148,11 @@ pub fn build_words(
 
 /// Loads a `.kdt`, or loads and builds anything else. Returns the words and the build time
 /// (the recorded one for a `.kdt`).
-pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)> {
+pub fn load_scene_words(
+    path: &Path,
+    args: &BuildArgs,
+    outputs: &[&Path],
+) -> Result<(Vec<u32>, f64)> {
     if path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("kdt"))
@@ -159,7 +163,7 @@ pub fn load_scene_words(path: &Path, args: &BuildArgs) -> Result<(Vec<u32>, f64)
             .unwrap_or(0.0);
         return Ok((words, ms));
     }
-    let geom = input::load_input(path)?;
+    let geom = input::load_input(path, outputs)?;
     build_words(path, &geom, &args.params(), args.layout, args.leaves)
 }
 
@@ -174,8 +178,11 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
         None => None,
     };
     let geom = match &file {
-        Some(file) => file.geometry()?,
-        None => input::load_input(input)?,
+        Some(file) => {
+            files::check_not_inputs(&file.mesh_files(), &outputs)?;
+            file.geometry()?
+        }
+        None => input::load_input(input, &outputs)?,
     };
     reset_peak_resident();
     let (words, build_ms) = build_words(input, &geom, &args.params(), args.layout, args.leaves)?;
@@ -246,6 +253,8 @@ pub fn info(file: &Path) -> Result<()> {
             contents::INPUT_IDS,
             "input-ids (triangles stored in leaf order)",
         ),
+        (contents::BLOCKED, "blocked"),
+        (contents::GROUPS, "groups"),
     ];
     let present: Vec<&str> = names
         .iter()
@@ -285,6 +294,15 @@ pub fn info(file: &Path) -> Result<()> {
             scene.blocks().len(),
             b as f64 / node_bytes as f64
         ),
+    }
+    let groups = words[kdray_core::format::header::GROUP_COUNT] as usize;
+    if scene.has_groups() {
+        println!(
+            "leaves hold     groups ({groups} groups of four triangles, {} bytes)",
+            groups * kdray_core::group::GROUP_WORDS * 4
+        );
+    } else {
+        println!("leaves hold     lists (primitive ids in the index list)");
     }
     println!("bytes per prim  {:.2}", s.bytes_per_prim);
     if scene.tri_count() > 0 {

@@ -238,7 +238,7 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
     let series: Vec<Series> = modes
         .iter()
         .map(|&mode| Series {
-            name: format!("{mode} (slope {:.3})", converge::slope(&points, mode)),
+            name: format!("{mode} (slope {})", figure(converge::slope(&points, mode))),
             points: points
                 .iter()
                 .filter(|p| p.mode == mode)
@@ -274,8 +274,8 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
     }
     for &mode in modes {
         println!(
-            "slope={:.3} mode={mode} points={} repeats={} threads={} (an unbiased estimator gives -0.5)",
-            converge::slope(&points, mode),
+            "slope={} mode={mode} points={} repeats={} threads={} (an unbiased estimator gives -0.5)",
+            figure(converge::slope(&points, mode)),
             counts.len(),
             args.repeats,
             pool.current_num_threads()
@@ -283,4 +283,14 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
     }
     println!("wrote {} and {}", args.out.display(), png.display());
     Ok(())
+}
+
+/// A fitted slope to 3 decimals, or `none` where there is none to fit (an RMSE of 0: a noiseless
+/// image); never `NaN`.
+fn figure(slope: f64) -> String {
+    if slope.is_finite() {
+        format!("{slope:.3}")
+    } else {
+        "none (an RMSE of 0 leaves no line to fit)".into()
+    }
 }

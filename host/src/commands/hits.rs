@@ -3,7 +3,7 @@
 
 use kdray::error::{Error, Result};
 use kdray::{files, rays};
-use std::io::Write as _;
+use std::io::{Read as _, Seek as _, Write as _};
 use std::path::PathBuf;
 
 /// `kdray hits`'s arguments.
@@ -22,28 +22,53 @@ pub struct HitsArgs {
 }
 
 /// Prints the hits `first..first + count` of the file, one line each: `INDEX t=T prim=P u=U v=V`
-/// (floats in Rust's shortest form that reads back to the same bits), or `INDEX miss`.
+/// (floats in Rust's shortest form that reads back to the same bits), or `INDEX miss`. Reads only
+/// those records (a hits file may be larger than memory).
+///
+/// # Errors
+/// The file is not a whole number of hits, `--first` is past its end, reading it or writing to
+/// stdout fails (a closed pipe just ends the listing).
 pub fn hits(args: &HitsArgs) -> Result<()> {
-    let hits = rays::decode_hits(&args.file, &files::read(&args.file)?)?;
+    let path = &args.file;
+    let mut file = files::open(path)?;
+    let bytes = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let n = rays::record_count(path, bytes, rays::HIT_BYTES, "hits")?;
+    let first = args.first as u64;
+    if first > 0 && first >= n {
+        let msg = format!("holds {n} hits: --first {first} is past its end");
+        return Err(Error::new(path, msg));
+    }
     let end = args
         .count
-        .map_or(hits.len(), |n| args.first.saturating_add(n).min(hits.len()));
-    let write = || -> std::io::Result<()> {
-        let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-        for (i, h) in hits.iter().enumerate().take(end).skip(args.first) {
-            if h.is_hit() {
-                writeln!(out, "{i} t={} prim={} u={} v={}", h.t, h.prim, h.u, h.v)?;
-            } else {
-                writeln!(out, "{i} miss")?;
-            }
+        .map_or(n, |c| first.saturating_add(c as u64).min(n));
+    file.seek(std::io::SeekFrom::Start(first * rays::HIT_BYTES as u64))
+        .map_err(|e| Error::io(path, e))?;
+    let mut records = std::io::BufReader::new(file);
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+    let mut record = [0u8; rays::HIT_BYTES];
+    for i in first..end {
+        records
+            .read_exact(&mut record)
+            .map_err(|e| Error::io(path, e))?;
+        let h = rays::decode_hit(&record);
+        let line = if h.is_hit() {
+            writeln!(out, "{i} t={} prim={} u={} v={}", h.t, h.prim, h.u, h.v)
+        } else {
+            writeln!(out, "{i} miss")
+        };
+        if !written(line)? {
+            return Ok(());
         }
-        out.flush()
-    };
-    match write() {
-        // A closed pipe (`kdray hits FILE | head`) ends the listing; it is not an error.
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            Err(Error::new("<stdout>", e.to_string()))
-        }
-        _ => Ok(()),
+    }
+    written(out.flush()).map(|_| ())
+}
+
+/// Whether a write to stdout went through: false for a closed pipe (`kdray hits FILE | head`),
+/// which ends the listing without error.
+fn written(r: std::io::Result<()>) -> Result<bool> {
+    match r {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(false),
+        Err(e) => Err(Error::new("<stdout>", e.to_string())),
+        Ok(()) => Ok(true),
     }
 }

@@ -214,7 +214,17 @@ impl Prepared {
             || done.load(Ordering::Relaxed),
             || pool.install(|| progressive::render(&frame, plan, &done)),
         );
-        result.map_err(|e| Error::new(&self.file.path, e.to_string()))
+        let (film, stats) = result.map_err(|e| Error::new(&self.file.path, e.to_string()))?;
+        match film.overflowed() {
+            0 => Ok((film, stats)),
+            n => Err(Error::new(
+                &self.file.path,
+                format!(
+                    "the radiance of {n} pixels overflowed f32 (their sums of samples passed \
+                     3.4e38): no image is written; lower the emission or background"
+                ),
+            )),
+        }
     }
 }
 

@@ -117,13 +117,24 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
 pub fn trace(args: &TraceArgs) -> Result<()> {
     files::check_outputs(&[&args.input, &args.rays], &[&args.out])?;
     let rays = rays::read_rays(&args.rays)?;
-    rays::check_rays(&args.rays, &rays)?;
-    let (words, build_ms) = load_scene_words(&args.input, &args.build)?;
+    // The hits' memory (16 bytes a ray) is asked for before the scene is loaded or built.
+    let mut hits = Vec::new();
+    if hits.try_reserve_exact(rays.len()).is_err() {
+        let msg = format!(
+            "the hits of {} rays take {} of memory, which cannot be allocated here (out of \
+             memory, or an address-space limit)",
+            rays.len(),
+            kdray::memory::mib((rays.len() * rays::HIT_BYTES) as u64)
+        );
+        return Err(Error::new(&args.rays, msg));
+    }
+    hits.resize(rays.len(), Hit::MISS);
+    let (words, build_ms) = load_scene_words(&args.input, &args.build, &[&args.out])?;
     // Blocks on cache lines (see `flat::Aligned`).
     let words = kdray::flat::Aligned::new(&words);
     let scene = Scene::from_words(&words).map_err(|e| Error::new(&args.input, e.to_string()))?;
+    kdray::reach::check_rays(&args.rays, &scene, &rays)?;
     let pool = pool(&args.input, args.threads)?;
-    let mut hits = vec![Hit::MISS; rays.len()];
     let mode = if args.watertight {
         Mode::Watertight
     } else {
@@ -149,7 +160,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         });
         best = best.min(start.elapsed().as_secs_f64());
     }
-    files::write_atomic(&args.out, &rays::encode_hits(&hits))?;
+    files::write_atomic_with(&args.out, |w| rays::write_hits(w, &hits))?;
     let n_hits = hits.iter().filter(|h| h.is_hit()).count();
     let mrays = if best > 0.0 {
         rays.len() as f64 / best / 1e6
@@ -227,7 +238,7 @@ fn in_flight_count(in_flight: InFlight) -> u32 {
 
 pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64) -> Result<()> {
     files::check_outputs(&[input], &[out])?;
-    let (words, _) = load_scene_words(input, &BuildArgs::default())?;
+    let (words, _) = load_scene_words(input, &BuildArgs::default(), &[out])?;
     let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
     let [lo, hi] = scene.bounds();
     let camera = rays::framing_camera(scene.bounds()).ok_or_else(|| {

@@ -14,7 +14,7 @@ mod obj;
 mod ply;
 mod tri;
 
-pub use ply::MAX_INFLATED;
+pub use ply::{MAX_INFLATED, inflated_size};
 pub use tri::{decode_tri, encode_tri};
 
 use crate::error::{Error, Result};
@@ -103,7 +103,9 @@ pub(crate) fn check_geometry(path: &Path, g: &Geometry) -> Result<()> {
 /// before a build so that the error names the input (not the output it would have been written
 /// to): finite vertices whose edges `v1 − v0`, `v2 − v0` are finite too (vertices ±3e38 apart
 /// overflow f32) and whose cross product leaves the parallel threshold finite
-/// (`Triangle::is_too_large`), spheres whose box `c ± r` is finite, attribute lists as long as the triangles.
+/// (`Triangle::is_too_large`), triangles small enough for the scene's size
+/// ([`crate::reach::check_scene`]), spheres whose box `c ± r` is finite, attribute lists as long
+/// as the triangles.
 ///
 /// # Errors
 /// The first primitive that breaks a rule, by index.
@@ -137,6 +139,7 @@ pub fn check_buildable(path: &Path, g: &Geometry) -> Result<()> {
         );
         return Err(Error::new(path, msg));
     }
+    crate::reach::check_scene(path, g)?;
     if let Some(i) = g.spheres.iter().position(|&(c, r)| {
         !((c - glam::Vec3::splat(r)).is_finite() && (c + glam::Vec3::splat(r)).is_finite())
     }) {

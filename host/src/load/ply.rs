@@ -267,11 +267,7 @@ pub(super) fn decode(path: &Path, bytes: &[u8], gz: bool) -> Result<Geometry> {
 /// inflated into a buffer of exactly its size.
 fn inflate(path: &Path, bytes: &[u8]) -> Result<Vec<u8>> {
     let gz_error = |e: std::io::Error| Error::new(path, format!("invalid gzip data: {e}"));
-    let size = std::io::copy(
-        &mut MultiGzDecoder::new(bytes).take(MAX_INFLATED as u64 + 1),
-        &mut std::io::sink(),
-    )
-    .map_err(gz_error)?;
+    let size = inflated_size(path, bytes)?;
     let mut out = Vec::with_capacity(size.min(MAX_INFLATED as u64) as usize);
     if size <= MAX_INFLATED as u64 {
         MultiGzDecoder::new(bytes)
@@ -286,6 +282,19 @@ fn inflate(path: &Path, bytes: &[u8]) -> Result<Vec<u8>> {
         return Err(Error::new(path, msg));
     }
     Ok(out)
+}
+
+/// How many bytes the gzip file `bytes` inflates to, counted without keeping them, up to one
+/// past [`MAX_INFLATED`] (a larger file counts as `MAX_INFLATED + 1`).
+///
+/// # Errors
+/// Invalid gzip data.
+pub fn inflated_size(path: &Path, bytes: &[u8]) -> Result<u64> {
+    std::io::copy(
+        &mut MultiGzDecoder::new(bytes).take(MAX_INFLATED as u64 + 1),
+        &mut std::io::sink(),
+    )
+    .map_err(|e| Error::new(path, format!("invalid gzip data: {e}")))
 }
 
 fn parse(path: &Path, data: &[u8]) -> Result<Geometry> {

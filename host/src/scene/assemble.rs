@@ -7,7 +7,6 @@ use crate::error::Result;
 use crate::geometry::{Geometry, TriNormals, TriUvs};
 use crate::load::{MeshFormat, decode_mesh, load_mesh};
 use glam::{Vec2, Vec3};
-use std::path::Path;
 
 /// The unit normal of a triangle's plane by its winding (zero when degenerate): what a triangle
 /// without vertex normals is shaded with, when other triangles of the scene have them.
@@ -54,11 +53,12 @@ impl SceneFile {
     /// texture coordinates are kept when any mesh has them (see `docs/SCENE.md`).
     ///
     /// # Errors
-    /// A mesh that cannot be opened (naming the scene file and line) or loaded (naming the mesh
-    /// file), or an unresolved material (only possible if the fields were edited after
+    /// A mesh that cannot be opened or loaded (naming the scene file and line, and the mesh
+    /// file and its line where known), meshes too large together ([`Self::check_meshes`]), or an
+    /// unresolved material (only possible if the fields were edited after
     /// [`super::load_scene`] validated them).
     pub fn geometry(&self) -> Result<Geometry> {
-        let base = self.path.parent().unwrap_or(Path::new(""));
+        self.check_meshes()?;
         let mut out = Geometry::default();
         let resolve = self.material_resolver();
         let material = |name: Option<&str>, line: Option<usize>| {
@@ -74,23 +74,8 @@ impl SceneFile {
                     let format = MeshFormat::from_path(&m.path).unwrap_or(MeshFormat::Ply);
                     decode_mesh(format, &m.path, bytes)?
                 }
-                None => {
-                    let file = base.join(&m.path);
-                    if let Err(e) = std::fs::metadata(&file) {
-                        let mut msg =
-                            format!("mesh `{}` ({}): {e}", m.path.display(), file.display());
-                        if e.kind() == std::io::ErrorKind::NotFound && in_data_dir(&m.path) {
-                            // The benchmark meshes are not in the repository (DESIGN.md):
-                            // scripts/fetch-meshes.sh downloads them into data/.
-                            msg.push_str(
-                                " (the Stanford meshes are not in the repository: \
-                                 run scripts/fetch-meshes.sh to fetch them into data/)",
-                            );
-                        }
-                        return Err(self.error(line, msg));
-                    }
-                    load_mesh(&file)?
-                }
+                None => load_mesh(&self.mesh_file(&m.path))
+                    .map_err(|e| self.error(line, format!("mesh `{}`: {e}", m.path.display())))?,
             };
             let placement = transform(m).map_err(|msg| self.error(line, msg))?;
             if let Some(t) = placement {
@@ -122,13 +107,6 @@ impl SceneFile {
         }
         Ok(out)
     }
-}
-
-/// Whether a scene's mesh path points into a `data/` folder, where scripts/fetch-meshes.sh puts
-/// the meshes it downloads.
-fn in_data_dir(path: &Path) -> bool {
-    path.parent()
-        .is_some_and(|p| p.components().any(|c| c.as_os_str() == "data"))
 }
 
 #[cfg(test)]
