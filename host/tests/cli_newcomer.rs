@@ -3,7 +3,7 @@
 //! machine's instruction set (`kdray --version` says which), and a `trace` line that says whether
 //! it built the tree.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 mod common;
@@ -20,6 +20,17 @@ fn kdray_in(cwd: &Path, args: &[&str]) -> Output {
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// `DIR/one.tri`: one triangle in the plane z = 0 covering the origin's column.
+fn one_triangle(d: &Path) -> PathBuf {
+    let mesh = d.join("one.tri");
+    let mut b = 1u32.to_le_bytes().to_vec();
+    for v in [-1.0f32, -1.0, 0.0, 1.0, -1.0, 0.0, 0.0, 1.0, 0.0] {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(&mesh, b).unwrap();
+    mesh
 }
 
 /// A small scene: one diffuse sphere under the background light.
@@ -93,13 +104,7 @@ fn a_missing_benchmark_mesh_names_the_script_that_fetches_it() {
 #[test]
 fn hits_prints_a_hits_file_as_text() {
     let d = dir("hits-text");
-    // One triangle in the plane z = 0 covering the origin's column.
-    let mesh = d.join("one.tri");
-    let mut b = 1u32.to_le_bytes().to_vec();
-    for v in [-1.0f32, -1.0, 0.0, 1.0, -1.0, 0.0, 0.0, 1.0, 0.0] {
-        b.extend_from_slice(&v.to_le_bytes());
-    }
-    std::fs::write(&mesh, b).unwrap();
+    let mesh = one_triangle(&d);
     // Two rays down -z: one through the triangle (t = 2), one beside it.
     let rays: [[f32; 8]; 2] = [
         [0.0, 0.0, 2.0, 0.0, 0.0, -1.0, 0.0, f32::INFINITY],
@@ -202,12 +207,7 @@ fn a_default_source_build_uses_the_cpus_isa() {
 #[test]
 fn trace_says_whether_it_built_the_tree() {
     let d = dir("prebuilt");
-    let mesh = d.join("one.tri");
-    let mut b = 1u32.to_le_bytes().to_vec();
-    for v in [-1.0f32, -1.0, 0.0, 1.0, -1.0, 0.0, 0.0, 1.0, 0.0] {
-        b.extend_from_slice(&v.to_le_bytes());
-    }
-    std::fs::write(&mesh, b).unwrap();
+    let mesh = one_triangle(&d);
     let kdt = d.join("one.kdt");
     let out = kdray(&["build", s(&mesh), "-o", s(&kdt)]);
     assert!(out.status.success(), "{}", stderr(&out));
