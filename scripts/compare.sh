@@ -44,8 +44,11 @@ cpu=${KDRAY_CPU:-x86-64-v3}
 target=${CARGO_TARGET_DIR:-target}/$cpu
 RUSTFLAGS="${RUSTFLAGS:-} -C target-cpu=$cpu" CARGO_TARGET_DIR=$target \
   cargo build --release -q -p kdray-benches "${features[@]}" --bin compare
-grep -m1 '^model name' /proc/cpuinfo || true
-echo "kdray built with -C target-cpu=$cpu"
+# The machine, for the figures: the CPU's model, its cores, and (per mesh, below) the instruction
+# set kdray was built for next to the CPU's own.
+model=$(sed -n 's/^model name[[:space:]]*: *//p' /proc/cpuinfo 2>/dev/null | head -1)
+[ -n "$model" ] || model=$(sysctl -n machdep.cpu.brand_string 2>/dev/null || true)
+echo "machine: ${model:-unknown CPU}, $(nproc 2>/dev/null || echo '?') cores; kdray built with -C target-cpu=$cpu"
 
 for m in "${meshes[@]}"; do
   "$target/release/compare" "$m" "${args[@]}"

@@ -8,7 +8,7 @@
 //! kdray build core/examples/data/cube.obj -o core/examples/data/cube.kdt
 //! ```
 //! (again after a format version change: `Scene::from_words` then refuses the old file and asks
-//! for exactly that.) Run with `cargo run --example trace_kdt`.
+//! for exactly that.) Run with `cargo run -p kdray-core --example trace_kdt`.
 
 use glam::Vec3;
 use kdray_core::words::from_bytes;

@@ -36,7 +36,7 @@
 //! Four or eight rays at once: [`simd`]; many rays, sorted into packets for you:
 //! [`traverse::stream`]; images: [`render`] (with a camera from [`camera`] and the materials and
 //! lights of a scene, or a render description from `kdray build --description`, [`description`]).
-//! The examples (`cargo run --example trace_kdt` for this crate; `triangles` and
+//! The examples (`cargo run -p kdray-core --example trace_kdt` for this crate; `triangles` and
 //! `render_buffer` in `kdray`) show each way in a short program.
 //!
 //! [`kdray`]: https://docs.rs/kdray

@@ -1,7 +1,7 @@
 //! A scene rendered into a buffer of your own: the built-in default scene (`kdray render`
 //! without a scene file) at 64×48 pixels, 16 samples per pixel, through the core's render kernel
 //! (`kdray_core::render::render_rows`, the same pixels `kdray render --bounces packets` computes),
-//! printed as characters. Run with `cargo run --release --example render_buffer`.
+//! printed as characters. Run with `cargo run --release -p kdray --example render_buffer`.
 
 use kdray::build::{BuildParams, build};
 use kdray::flat;

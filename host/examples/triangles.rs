@@ -2,7 +2,7 @@
 //!
 //! `kdray` (this crate, `std`) builds the SAH kd-tree over a mesh and serializes it into the flat
 //! array of `u32` words; `kdray_core` (`no_std`, no allocation) validates those words once and
-//! traces rays through them. Run with `cargo run --release --example triangles`.
+//! traces rays through them. Run with `cargo run --release -p kdray --example triangles`.
 
 use glam::Vec3;
 use kdray::Geometry;

@@ -98,7 +98,7 @@ fn write_exr(path: &Path, band: &Band) -> Result<()> {
     crate::files::write_atomic_with(path, |out| encode_exr(band, out))
 }
 
-/// Encodes `band` as [`write`] stores it in an `.exr` (the `exr` fuzz target encodes to memory).
+/// Encodes `band` as [`write()`] stores it in an `.exr` (the `exr` fuzz target encodes to memory).
 ///
 /// # Errors
 /// The encoder's or `out`'s.

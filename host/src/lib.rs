@@ -35,9 +35,12 @@
 //!
 //! Scene files (`docs/SCENE.md`) load with [`scene::load_scene`] (camera, materials, geometry);
 //! meshes with [`input::load_input`] (PLY, OBJ, `.tri`); [`progressive`] renders on all cores.
-//! Runnable programs: `cargo run --release --example triangles` (this example with more rays)
-//! and `--example render_buffer` (a scene rendered into a buffer) in this crate,
-//! `--example trace_kdt` (a `.kdt` compiled in, traced `no_std`-style) in `kdray-core`. The
+//! Runnable programs: `cargo run --release -p kdray --example triangles` (this example with more
+//! rays) and `--example render_buffer` (a scene rendered into a buffer) in this crate,
+//! `-p kdray-core --example trace_kdt` (a `.kdt` compiled in, traced `no_std`-style) in
+//! `kdray-core`. (`-p` keeps the crates' features those of `cargo run --release -p kdray`, so
+//! nothing is compiled again; without it cargo unifies the whole workspace's features, the
+//! benches' included, and rebuilds the dependency tree.) The
 //! command line: `kdray --help`.
 
 pub mod error;
@@ -58,6 +61,8 @@ pub mod closed;
 #[cfg(feature = "cli")]
 pub mod converge;
 pub mod counts;
+#[cfg(feature = "cli")]
+pub mod cpu;
 pub mod crossings;
 pub mod description;
 pub mod f64ref;

@@ -8,11 +8,17 @@ mod help_tests;
 use clap::{CommandFactory, Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::LazyLock;
+
+/// `kdray --version`: the version, the instruction set the build uses and the CPU's
+/// (`kdray::cpu::describe`).
+static VERSION: LazyLock<String> =
+    LazyLock::new(|| format!("{} {}", env!("CARGO_PKG_VERSION"), kdray::cpu::describe()));
 
 #[derive(Parser)]
 #[command(
     name = "kdray",
-    version,
+    version = VERSION.as_str(),
     about = "Build, inspect and trace SAH kd-trees for the kdray core"
 )]
 struct Cli {

@@ -4,7 +4,7 @@
 //!
 //! [`load_scene`] parses and validates the whole description — every reference resolved, every
 //! number in its range, the camera built once — so that errors come with the scene file's line.
-//! [`SceneFile::geometry`] then loads the meshes and assembles one [`Geometry`].
+//! [`SceneFile::geometry`] then loads the meshes and assembles one [`Geometry`](crate::Geometry).
 
 mod assemble;
 mod camera;

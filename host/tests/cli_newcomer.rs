@@ -1,7 +1,9 @@
 //! What a newcomer meets first: the default output's name, `kdray hits`, the hint that names
-//! scripts/fetch-meshes.sh, and help texts that describe every argument.
+//! scripts/fetch-meshes.sh, help texts that describe every argument, a source build at the
+//! machine's instruction set (`kdray --version` says which), and a `trace` line that says whether
+//! it built the tree.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 mod common;
@@ -18,6 +20,17 @@ fn kdray_in(cwd: &Path, args: &[&str]) -> Output {
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// `DIR/one.tri`: one triangle in the plane z = 0 covering the origin's column.
+fn one_triangle(d: &Path) -> PathBuf {
+    let mesh = d.join("one.tri");
+    let mut b = 1u32.to_le_bytes().to_vec();
+    for v in [-1.0f32, -1.0, 0.0, 1.0, -1.0, 0.0, 0.0, 1.0, 0.0] {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(&mesh, b).unwrap();
+    mesh
 }
 
 /// A small scene: one diffuse sphere under the background light.
@@ -91,13 +104,7 @@ fn a_missing_benchmark_mesh_names_the_script_that_fetches_it() {
 #[test]
 fn hits_prints_a_hits_file_as_text() {
     let d = dir("hits-text");
-    // One triangle in the plane z = 0 covering the origin's column.
-    let mesh = d.join("one.tri");
-    let mut b = 1u32.to_le_bytes().to_vec();
-    for v in [-1.0f32, -1.0, 0.0, 1.0, -1.0, 0.0, 0.0, 1.0, 0.0] {
-        b.extend_from_slice(&v.to_le_bytes());
-    }
-    std::fs::write(&mesh, b).unwrap();
+    let mesh = one_triangle(&d);
     // Two rays down -z: one through the triangle (t = 2), one beside it.
     let rays: [[f32; 8]; 2] = [
         [0.0, 0.0, 2.0, 0.0, 0.0, -1.0, 0.0, f32::INFINITY],
@@ -161,4 +168,66 @@ fn help_describes_every_argument_the_issue_named() {
             assert!(text.contains(n), "kdray {sub} --help lacks `{n}`:\n{text}");
         }
     }
+}
+
+/// `kdray --version` names the instruction set the build uses and the CPU's own (run-time
+/// detection), so that a user can see whether the build leaves speed unused.
+#[test]
+fn version_names_the_builds_isa_and_the_cpus() {
+    let out = kdray(&["--version"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let line = String::from_utf8_lossy(&out.stdout);
+    assert!(line.starts_with("kdray "), "{line}");
+    let build = format!("isa={} (this CPU: ", kdray_core::isa::name());
+    assert!(line.contains(&build), "--version lacks `{build}`: {line}");
+    let cpu = format!(", {}", kdray::cpu::isa());
+    assert!(
+        line.contains(&cpu),
+        "--version lacks the CPU's isa `{cpu}`: {line}"
+    );
+}
+
+/// The default source build (`cargo build`, `cargo run`, `cargo install --path host` from the
+/// repository: `.cargo/config.toml` sets `target-cpu=native` on x86-64) compiles for the CPU that
+/// builds it, so its SIMD is the CPU's best on `kdray_core::isa`'s ladder (AVX2 + FMA on an AVX2
+/// or AVX-512 machine, not two SSE2 halves). A build with RUSTFLAGS for another CPU (a portable
+/// build, `-C target-cpu=x86-64`) fails this by design.
+#[test]
+fn a_default_source_build_uses_the_cpus_isa() {
+    assert_eq!(
+        kdray_core::isa::name(),
+        kdray::cpu::isa(),
+        "this build's SIMD is not this CPU's best: is RUSTFLAGS set (it replaces \
+         .cargo/config.toml's target-cpu=native), or was it built elsewhere?"
+    );
+}
+
+/// `trace` on a `.kdt` builds nothing: `build_ms=0.000 prebuilt=1`, with the time stored in the
+/// file under its own key; on a mesh it reports the build it made (`prebuilt=0`).
+#[test]
+fn trace_says_whether_it_built_the_tree() {
+    let d = dir("prebuilt");
+    let mesh = one_triangle(&d);
+    let kdt = d.join("one.kdt");
+    let out = kdray(&["build", s(&mesh), "-o", s(&kdt)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let rays = d.join("rays.bin");
+    let ray = [0.0f32, 0.0, 2.0, 0.0, 0.0, -1.0, 0.0, f32::INFINITY];
+    std::fs::write(&rays, ray.map(f32::to_le_bytes).concat()).unwrap();
+    let hits = d.join("hits.bin");
+    let trace = |input: &Path| {
+        let out = kdray(&["trace", s(input), "--rays", s(&rays), "--out", s(&hits)]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let line = trace(&kdt);
+    assert!(
+        line.starts_with("build_ms=0.000 prebuilt=1 stored_build_ms="),
+        "{line}"
+    );
+    assert!(line.contains(" hits=1 "), "{line}");
+    let line = trace(&mesh);
+    assert!(line.starts_with("build_ms="), "{line}");
+    assert!(line.contains(" prebuilt=0 "), "{line}");
+    assert!(!line.contains("stored_build_ms"), "{line}");
 }

@@ -27,7 +27,7 @@ fn scenes() -> Vec<(PathBuf, String)> {
 }
 
 /// Scenes that need files the README's setup does not make: `dragon.toml` reads
-/// `data/dragon.ply`, which `scripts/bench-setup.sh` fetches (README, "Benchmarks").
+/// `data/dragon.ply`, which `scripts/fetch-meshes.sh` fetches (README, "Getting started").
 fn needs_benchmark_data(path: &Path) -> bool {
     path.file_name().is_some_and(|n| n == "dragon.toml") && !root().join("data/dragon.ply").exists()
 }
@@ -38,7 +38,7 @@ fn every_example_scene_renders() {
     std::fs::create_dir_all(&out_dir).unwrap();
     for (path, _) in scenes() {
         if needs_benchmark_data(&path) {
-            eprintln!("skipped {} (run scripts/bench-setup.sh)", path.display());
+            eprintln!("skipped {} (run scripts/fetch-meshes.sh)", path.display());
             continue;
         }
         let png = out_dir.join(path.with_extension("png").file_name().unwrap());
@@ -62,6 +62,28 @@ fn every_example_scene_renders() {
         assert!(size > 0, "{} wrote no picture", path.display());
     }
     let _ = std::fs::remove_dir_all(&out_dir);
+}
+
+/// A scene that reads a mesh from `data/` names the script that puts it there, as the README and
+/// the loader's error do (`scripts/fetch-meshes.sh`, not the benchmark set-up, which also installs
+/// Embree).
+#[test]
+fn scenes_that_need_fetched_meshes_name_the_fetch_script() {
+    let mut needing = 0;
+    for (path, text) in scenes() {
+        let reads_data = text
+            .lines()
+            .any(|l| l.trim_start().starts_with("path") && l.contains("data/"));
+        if reads_data {
+            needing += 1;
+            assert!(
+                text.contains("scripts/fetch-meshes.sh"),
+                "{} reads data/ but does not name scripts/fetch-meshes.sh",
+                path.display()
+            );
+        }
+    }
+    assert!(needing >= 1, "dragon.toml reads data/dragon.ply");
 }
 
 #[test]

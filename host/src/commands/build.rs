@@ -34,9 +34,11 @@ pub struct BuildArgs {
     /// into 64-byte blocks of three levels, which single rays walk; format v7).
     #[arg(long, value_enum, default_value_t = flat::Layout::default())]
     pub layout: flat::Layout,
-    /// How a leaf holds its triangles: `list` (ids in an index list; any scene), or `groups`
+    /// How a leaf holds its triangles: `list` (ids in an index list; any scene, and every target
+    /// loads it: the firmware and the WASM page leave the group kernels out), or `groups`
     /// (inline, four to a 176-byte group, tested four at a time by single rays, with the SAH
-    /// priced in groups; triangles-only scenes; format v9).
+    /// priced in groups; triangles-only scenes; format v9; the npm package's default, README
+    /// "Command line").
     #[arg(long, value_enum, default_value_t = flat::Leaves::default())]
     pub leaves: flat::Leaves,
     /// How hard the builder searches: `high` (the exact sweep and perfect splits at every node)
@@ -146,25 +148,23 @@ pub fn build_words(
     Ok((words, build_ms))
 }
 
-/// Loads a `.kdt`, or loads and builds anything else. Returns the words and the build time
-/// (the recorded one for a `.kdt`).
+/// Loads a `.kdt`, or loads and builds anything else (refusing to write over an input named in
+/// `outputs`). Returns the words and, when it built them, the build time in ms (`None` for a
+/// `.kdt`: nothing was built now; the time stored in the file is `Scene::build_ms`).
 pub fn load_scene_words(
     path: &Path,
     args: &BuildArgs,
     outputs: &[&Path],
-) -> Result<(Vec<u32>, f64)> {
+) -> Result<(Vec<u32>, Option<f64>)> {
     if path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("kdt"))
     {
-        let words = flat::read_kdt(path)?;
-        let ms = Scene::from_words(&words)
-            .map(|s| s.build_ms() as f64)
-            .unwrap_or(0.0);
-        return Ok((words, ms));
+        return Ok((flat::read_kdt(path)?, None));
     }
     let geom = input::load_input(path, outputs)?;
-    build_words(path, &geom, &args.params(), args.layout, args.leaves)
+    let (words, ms) = build_words(path, &geom, &args.params(), args.layout, args.leaves)?;
+    Ok((words, Some(ms)))
 }
 
 /// `kdray build`: the tree into `out` and, for a scene file, its render description into

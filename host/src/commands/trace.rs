@@ -15,7 +15,9 @@ use std::time::Instant;
 /// `kdray trace`'s arguments.
 #[derive(clap::Args, Debug)]
 pub struct TraceArgs {
-    /// A .kdt, or anything `build` accepts (built first; build_ms reports that build).
+    /// A .kdt (read, not built: the line says `build_ms=0.000 prebuilt=1` and the build time
+    /// stored in the file as `stored_build_ms=`), or anything `build` accepts (built first:
+    /// `build_ms=` that build, `prebuilt=0`).
     pub input: PathBuf,
     /// The rays file (n × 8 little-endian f32: ox oy oz dx dy dz tmin tmax; `kdray rays` writes
     /// one). Directions must have length 1 (± 1e-3).
@@ -168,7 +170,8 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         0.0
     };
     println!(
-        "build_ms={build_ms:.3} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} in_flight={} layout={} leaves={}",
+        "{} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} in_flight={} layout={} leaves={}",
+        build_keys(build_ms, &scene),
         best * 1e3,
         rays.len(),
         args.packet,
@@ -223,6 +226,18 @@ pub fn parse_in_flight(s: &str) -> core::result::Result<InFlight, String> {
         "8" => Ok(InFlight::Eight),
         "16" => Ok(InFlight::Sixteen),
         _ => Err(format!("walks in flight must be 1, 4, 8 or 16, got '{s}'")),
+    }
+}
+
+/// The line's first keys: what the build took now — `build_ms=` and `prebuilt=0` for a tree built
+/// from the input, `build_ms=0.000 prebuilt=1` and the time stored in the file for a `.kdt`.
+fn build_keys(built_ms: Option<f64>, scene: &Scene) -> String {
+    match built_ms {
+        Some(ms) => format!("build_ms={ms:.3} prebuilt=0"),
+        None => format!(
+            "build_ms=0.000 prebuilt=1 stored_build_ms={:.3}",
+            scene.build_ms()
+        ),
     }
 }
 

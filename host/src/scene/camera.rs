@@ -13,7 +13,7 @@ use kdray_core::description::AnyCamera;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer};
 
-/// How the image is looked at (`docs/SCENE.md`, "[camera]"). Angles in degrees;
+/// How the image is looked at (`docs/SCENE.md`, "\[camera\]"). Angles in degrees;
 /// `[start, middle, end]` triples follow Rukin (the middle must be the midpoint).
 #[derive(Clone, Debug, PartialEq)]
 pub enum CameraDesc {

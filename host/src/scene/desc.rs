@@ -50,7 +50,7 @@ pub enum MaterialKind {
 }
 
 /// A named material; geometry refers to it by name, the [`crate::Geometry`] by its index in
-/// [`SceneFile::materials`].
+/// [`SceneFile::materials`](super::SceneFile::materials).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialDesc {

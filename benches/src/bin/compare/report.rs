@@ -59,8 +59,8 @@ pub fn summary(rows: &[Row], s: usize, label: &str) -> String {
 /// The whole report of one mesh.
 pub fn print(mesh: &str, triangles: usize, repeat: usize, sets: &[RaySets], rows: &[Row]) {
     println!(
-        "mesh {mesh} ({triangles} triangles), 1 thread, median of {repeat}, kdray isa={}",
-        kdray_core::isa::name()
+        "mesh {mesh} ({triangles} triangles), 1 thread, median of {repeat}, kdray {}",
+        kdray::cpu::describe()
     );
     for (f, set) in sets.iter().enumerate() {
         let name = set.framing.name();
