@@ -142,7 +142,7 @@ fn geometry(triangles: Vec<[Vec3; 3]>) -> Geometry {
 }
 
 fn mesh(file: &str) -> Geometry {
-    load_input(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file)).unwrap()
+    load_input(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file), &[]).unwrap()
 }
 
 #[test]

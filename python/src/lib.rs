@@ -195,7 +195,7 @@ impl Tree {
                 let words = flat::read_kdt(&path).map_err(|e| e.to_string())?;
                 Owned::from_words(&words).map_err(|e| format!("{}: {e}", path.display()))
             } else {
-                let geom = kdray::input::load_input(&path).map_err(|e| e.to_string())?;
+                let geom = kdray::input::load_input(&path, &[]).map_err(|e| e.to_string())?;
                 if geom.triangles.is_empty() {
                     return Err(format!("{}: the mesh has no triangles", path.display()));
                 }

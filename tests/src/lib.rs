@@ -81,3 +81,20 @@ pub fn cases(n: u32) -> u32 {
         },
     }
 }
+
+/// The closest hit along `ray` by testing every primitive of `scene` with `C`'s kernels: the
+/// reference the walks are held to.
+pub fn brute_force<C: kdray_core::traverse::Contents>(
+    scene: &kdray_core::Scene,
+    ray: &kdray_core::Ray,
+) -> kdray_core::Hit {
+    let mut best = kdray_core::Hit::MISS;
+    for prim in 0..scene.prim_count() {
+        if let Some((t, u, v)) = scene.intersect_prim::<C>(prim, ray)
+            && t < best.t
+        {
+            best = kdray_core::Hit { t, prim, u, v };
+        }
+    }
+    best
+}

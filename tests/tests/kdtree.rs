@@ -8,7 +8,8 @@ use kdray::build::fast::FastParams;
 use kdray::build::{BuildParams, Quality, build};
 use kdray::flat::serialize;
 use kdray_core::traverse::{Contents, Mixed, Mode, Watertight};
-use kdray_core::{Hit, Ray, Scene};
+use kdray_core::{Ray, Scene};
+use kdray_tests::brute_force;
 use kdray_tests::strategies::{grid_geometry, traversal_ray};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -37,19 +38,6 @@ fn params() -> impl Strategy<Value = BuildParams> {
             fast: fast.unwrap_or_default(),
             ..BuildParams::default().with_quality(quality)
         })
-}
-
-/// The closest hit by testing every primitive with `C`'s kernels.
-fn brute_force<C: Contents>(scene: &Scene, ray: &Ray) -> Hit {
-    let mut best = Hit::MISS;
-    for prim in 0..scene.prim_count() {
-        if let Some((t, u, v)) = scene.intersect_prim::<C>(prim, ray)
-            && t < best.t
-        {
-            best = Hit { t, prim, u, v };
-        }
-    }
-    best
 }
 
 /// The walk in `mode` against brute force with the same kernels (`C`): the same closest `t`

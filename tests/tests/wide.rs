@@ -16,6 +16,7 @@ use kdray_core::traverse::wide::{
 };
 use kdray_core::traverse::{Contents, Mixed, Mode, Triangles, Watertight};
 use kdray_core::{Hit, Ray, Scene};
+use kdray_tests::brute_force;
 use kdray_tests::strategies::{grid_geometry, scattered_triangles, traversal_ray, vec3};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -30,19 +31,6 @@ fn layouts(geom: &Geometry, intersect_cost: f64, leaves: Leaves) -> (Vec<u32>, V
     let tree = build(geom, &params, None).expect("finite geometry builds");
     let words = |layout| serialize_as(&tree, geom, 0.0, layout, leaves).expect("fits the format");
     (words(Layout::Nodes), words(Layout::Wide))
-}
-
-/// The closest hit by testing every primitive with `C`'s kernels.
-fn brute_force<C: Contents>(scene: &Scene, ray: &Ray) -> Hit {
-    let mut best = Hit::MISS;
-    for prim in 0..scene.prim_count() {
-        if let Some((t, u, v)) = scene.intersect_prim::<C>(prim, ray)
-            && t < best.t
-        {
-            best = Hit { t, prim, u, v };
-        }
-    }
-    best
 }
 
 /// `got` is `want`'s closest hit: the same `t`, and a primitive that `ray` hits at that `t`.

@@ -65,10 +65,8 @@ pub fn validate(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
             // A box inside its cell (and so inside the parent's cell) and the parent slot's box;
             // an empty box (low > high on an axis) only where the child holds nothing to hit.
             let empty = !lo.cmple(hi).all();
-            if !empty && !(contains(f.cells[k], b) && contains(parent_box, b)) {
-                return Err(bad_box);
-            }
-            if !empty && !(lo.is_finite() && hi.is_finite()) {
+            let fits = contains(f.cells[k], b) && contains(parent_box, b);
+            if !(empty || fits && lo.is_finite() && hi.is_finite()) {
                 return Err(bad_box);
             }
             if f.leaves[k] {
