@@ -54,7 +54,7 @@ impl SceneFile {
     ///
     /// # Errors
     /// A mesh that cannot be opened or loaded (naming the scene file and line, and the mesh
-    /// file and its line where known), meshes too large together ([`Self::check_meshes`]), or an
+    /// file and its line where known), meshes too large together (`check_meshes`), or an
     /// unresolved material (only possible if the fields were edited after
     /// [`super::load_scene`] validated them).
     pub fn geometry(&self) -> Result<Geometry> {

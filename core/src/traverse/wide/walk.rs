@@ -11,7 +11,7 @@
 //! kd walk compares entry distances, see there). The distances are made conservative:
 //! - fast mode: the exit distance is raised by `2γ₃` of its magnitude (pbrt-v3's robust
 //!   `Bounds3::IntersectP`), so rounding does not drop a box the ray grazes;
-//! - watertight mode ([`Contents::CONSERVATIVE`]): each distance is [`widen`]ed outward (Ize 2013,
+//! - watertight mode ([`Contents::CONSERVATIVE`]): each distance is [`widen`](crate::traverse::widen)ed outward (Ize 2013,
 //!   "Robust BVH Ray Traversal"), so every box the ray touches, if only at a corner, is entered.
 //!
 //! A direction component that is `±0` or so small that its reciprocal overflows makes `1/d`
@@ -137,7 +137,7 @@ pub(crate) fn walk<C: Contents, Q: Query>(scene: &Scene, wide: &[WideNode], ray:
     walk_counted::<C, Q>(scene, wide, ray, q, &mut WalkCounts::default());
 }
 
-/// [`walk`], counting wide nodes and leaves into `counts`.
+/// The single-ray walk over `wide`, counting wide nodes and leaves into `counts`.
 #[inline(always)]
 pub fn walk_counted<C: Contents, Q: Query>(
     scene: &Scene,
