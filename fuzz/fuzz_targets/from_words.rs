@@ -73,19 +73,29 @@ fn wide_agrees_with_nodes(scene: &Scene, rays: &[Ray]) {
     for ray in rays {
         for mode in [Mode::Fast, Mode::Watertight] {
             let wide = scene.intersect_in(mode, ray);
-            assert_eq!(scene.occluded_in(mode, ray), wide.is_hit(), "{mode:?} {ray:?}");
+            assert_eq!(
+                scene.occluded_in(mode, ray),
+                wide.is_hit(),
+                "{mode:?} {ray:?}"
+            );
             if mode == Mode::Watertight {
                 let node = nodes.intersect_in(mode, ray);
                 assert_eq!(wide.t.to_bits(), node.t.to_bits(), "{ray:?}");
             }
             if wide.is_hit() {
                 let own = match mode {
-                    Mode::Fast => scene.intersect_prim::<kdray_core::traverse::Mixed>(wide.prim, ray),
+                    Mode::Fast => {
+                        scene.intersect_prim::<kdray_core::traverse::Mixed>(wide.prim, ray)
+                    }
                     Mode::Watertight => scene.intersect_prim::<kdray_core::traverse::Watertight<
                         kdray_core::traverse::Mixed,
                     >>(wide.prim, ray),
                 };
-                assert_eq!(own.map(|h| h.0.to_bits()), Some(wide.t.to_bits()), "{mode:?} {ray:?}");
+                assert_eq!(
+                    own.map(|h| h.0.to_bits()),
+                    Some(wide.t.to_bits()),
+                    "{mode:?} {ray:?}"
+                );
             }
         }
     }
