@@ -131,7 +131,9 @@ pub struct WalkCounts {
     pub leaves: u32,
 }
 
-/// Walks `ray` over `wide` to the end for `query`.
+/// Walks `ray` over `wide` to the end for `query` (what [`Scene::intersect`] runs with the core's
+/// `wide` feature).
+#[cfg(feature = "wide")]
 #[inline(always)]
 pub(crate) fn walk<C: Contents, Q: Query>(scene: &Scene, wide: &[WideNode], ray: &Ray, q: &mut Q) {
     walk_counted::<C, Q>(scene, wide, ray, q, &mut WalkCounts::default());
