@@ -242,9 +242,3 @@ pub fn slab_scalar<C: Contents>(b: [Vec3; 2], ray: &Ray, limit: f32) -> (bool, f
     let exit = if exit < limit { exit } else { limit };
     (entry <= exit, entry)
 }
-
-/// The slots an order word (see the [module doc](super)) lists, front to back.
-pub fn order_slots(order: u32) -> impl Iterator<Item = usize> {
-    let count = (order >> 24 & 15) as usize;
-    (0..count.min(WIDTH)).map(move |k| (order >> (3 * k) & 7) as usize)
-}
