@@ -57,6 +57,9 @@ pub struct Workload {
     /// serialization included, as above).
     pub grouped_words: Vec<u32>,
     pub grouped_build_ms: f64,
+    /// The grouped tree with its wide section (`kdray build --leaves groups --layout wide`),
+    /// which the single-ray queries walk eight cells at a time.
+    pub wide_words: Vec<u32>,
     /// One entry per framing, in [`Framing::ALL`]'s order (loose, then tight).
     pub framings: Vec<RaySets>,
 }
@@ -84,6 +87,7 @@ impl Workload {
         let tree = build(&geom, &grouped, None)?;
         let grouped_words = serialize_as(&tree, &geom, 0.0, Layout::Nodes, Leaves::Groups)?;
         let grouped_build_ms = start.elapsed().as_secs_f64() * 1e3;
+        let wide_words = serialize_as(&tree, &geom, 0.0, Layout::Wide, Leaves::Groups)?;
         let scene = Scene::from_words(&words).map_err(|e| e.to_string())?;
         let cannot = |framing: Framing| {
             format!("{}: no {} camera frames it", mesh.display(), framing.name())
@@ -111,6 +115,7 @@ impl Workload {
             build_ms,
             grouped_words,
             grouped_build_ms,
+            wide_words,
             framings,
         })
     }
@@ -123,6 +128,11 @@ impl Workload {
     /// The validated view of the grouped tree.
     pub fn grouped_scene(&self) -> Scene<'_> {
         Scene::from_words(&self.grouped_words).expect("the writer's output validates")
+    }
+
+    /// The validated view of the grouped tree with its wide section.
+    pub fn wide_scene(&self) -> Scene<'_> {
+        Scene::from_words(&self.wide_words).expect("the writer's output validates")
     }
 }
 

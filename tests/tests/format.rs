@@ -164,6 +164,18 @@ fn version_7_asks_for_a_rebuild() {
     assert!(err.to_string().contains("rebuild the file"), "{err}");
 }
 
+/// A file of version 10 (whose wide nodes took the cut three levels down, not the greedy cut
+/// validation now recomputes) is refused with a message saying to rebuild it.
+#[test]
+fn version_10_asks_for_a_rebuild() {
+    let mut w = valid_words();
+    w[header::VERSION] = 10;
+    seal(&mut w);
+    let err = check(&w).unwrap_err();
+    assert_eq!(err, FormatError::UnsupportedVersion(10));
+    assert!(err.to_string().contains("rebuild the file"), "{err}");
+}
+
 /// A triangle with area whose threshold overflows even from the scaled normal (`|e1 × e2|` ≥
 /// 7.7e25: f32 cannot trace it right) is refused, although the stored `+inf` is the threshold its
 /// vertices give: `+inf` stands for "never hit", which is right only for a degenerate triangle.

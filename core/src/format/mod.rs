@@ -4,7 +4,8 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         10 (9 had no wide section; 8 had no groups section; 7 stored `+inf` as the threshold of a
+//!  1  VERSION         11 (10 cut wide nodes three levels down, not greedily; 9 had no wide
+//!                     section; 8 had no groups section; 7 stored `+inf` as the threshold of a
 //!                     triangle whose `|e1 × e2|²` overflows f32, so fast mode never hit it; 6 had
 //!                     no blocks section, 5 stored edges, not vertices, 4 had no checksum: files
 //!                     written before are refused, rebuild them)
@@ -90,7 +91,7 @@
 //!   triangle of the triangles section, bit for bit (validation rebuilds every group from its ids),
 //!   so the walks return the hits of the index-list layout; the packet walks read the same ids
 //!   and test the triangles section.
-//! - **Wide nodes** (CONTENTS bit `WIDE`, version 10): the same tree collapsed into nodes of up
+//! - **Wide nodes** (CONTENTS bit `WIDE`, version 10; the greedy cut since 11): the same tree collapsed into nodes of up
 //!   to eight children, each with a conservative tight box and a front-to-back order per
 //!   direction octant ([`crate::traverse::wide`], where the encoding is documented). Leaves stay
 //!   in the node section (a reference names the leaf node). Validation recomputes every node's
@@ -144,7 +145,7 @@ use glam::Vec3;
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 10;
+pub const VERSION: u32 = 11;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).

@@ -30,17 +30,20 @@ pub struct BuildArgs {
     /// Build on one thread.
     #[arg(long)]
     pub serial_build: bool,
-    /// How the tree is stored: `nodes` (8-byte nodes), or `blocked` (the nodes and a copy cut
-    /// into 64-byte blocks of three levels, which single rays walk; format v7).
-    #[arg(long, value_enum, default_value_t = flat::Layout::default())]
+    /// How the tree is stored: `wide` (the default: the nodes and a copy collapsed into
+    /// eight-wide nodes with tight boxes, which single rays walk eight cells a step; 2.5x faster
+    /// on the dragon's diffuse rays than `nodes`, docs/BENCHMARKS.md "Wide nodes"), `nodes` (8-byte
+    /// nodes only: the smallest file, what packets walk), or `blocked` (the nodes and a copy cut
+    /// into 64-byte blocks of three levels; format v7).
+    #[arg(long, value_enum, default_value_t = flat::Layout::Wide)]
     pub layout: flat::Layout,
     /// How a leaf holds its triangles: `list` (ids in an index list; any scene, and every target
     /// loads it: the firmware and the WASM page leave the group kernels out), or `groups`
     /// (inline, four to a 176-byte group, tested four at a time by single rays, with the SAH
-    /// priced in groups; triangles-only scenes; format v9; the npm package's default, README
-    /// "Command line").
-    #[arg(long, value_enum, default_value_t = flat::Leaves::default())]
-    pub leaves: flat::Leaves,
+    /// priced in groups; triangles-only scenes; format v9; README "Command line"). Default:
+    /// `groups` for a scene of triangles only, `list` for one with spheres.
+    #[arg(long, value_enum)]
+    pub leaves: Option<flat::Leaves>,
     /// How hard the builder searches: `high` (the exact sweep and perfect splits at every node)
     /// or `fast` (binned planes on nodes of 256 primitives and more; about 1.4-2x faster, rays
     /// about 3 % slower: docs/BUILD.md, "Quality"). Same format either way.
@@ -57,16 +60,27 @@ impl Default for BuildArgs {
             empty_bonus: p.empty_bonus,
             max_depth: p.max_depth,
             serial_build: !p.parallel,
-            layout: flat::Layout::default(),
-            leaves: flat::Leaves::default(),
+            layout: flat::Layout::Wide,
+            leaves: None,
             quality: p.quality,
         }
     }
 }
 
 impl BuildArgs {
-    pub fn params(&self) -> BuildParams {
-        let base = self.leaves.build_params();
+    /// The leaves to store `geom`'s tree with: `--leaves`, or by default groups for a scene of
+    /// triangles only and index lists for one with spheres.
+    pub fn leaves_for(&self, geom: &Geometry) -> flat::Leaves {
+        self.leaves.unwrap_or(if geom.spheres.is_empty() {
+            flat::Leaves::Groups
+        } else {
+            flat::Leaves::List
+        })
+    }
+
+    /// The builder's settings for a tree stored with `leaves`.
+    pub fn params(&self, leaves: flat::Leaves) -> BuildParams {
+        let base = leaves.build_params();
         BuildParams {
             traversal_cost: self.trav_cost,
             intersect_cost: self.isect_cost.unwrap_or(base.intersect_cost),
@@ -163,7 +177,8 @@ pub fn load_scene_words(
         return Ok((flat::read_kdt(path)?, None));
     }
     let geom = input::load_input(path, outputs)?;
-    let (words, ms) = build_words(path, &geom, &args.params(), args.layout, args.leaves)?;
+    let leaves = args.leaves_for(&geom);
+    let (words, ms) = build_words(path, &geom, &args.params(leaves), args.layout, leaves)?;
     Ok((words, Some(ms)))
 }
 
@@ -185,7 +200,8 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
         None => input::load_input(input, &outputs)?,
     };
     reset_peak_resident();
-    let (words, build_ms) = build_words(input, &geom, &args.params(), args.layout, args.leaves)?;
+    let leaves = args.leaves_for(&geom);
+    let (words, build_ms) = build_words(input, &geom, &args.params(leaves), args.layout, leaves)?;
     let peak = peak_resident()
         .map(|b| format!(", peak_mib={}", b.div_ceil(1 << 20)))
         .unwrap_or_default();

@@ -10,7 +10,6 @@ use core::ops::Range;
 use core::sync::atomic::{AtomicU64, Ordering};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use kdray::build::BuildParams;
 use kdray::error::{Error, Result};
 use kdray::image::{self, Band, Format};
 use kdray::progressive::{self, Plan, Stats, Stop};
@@ -140,12 +139,20 @@ impl Prepared {
     pub fn from_file(file: SceneFile) -> Result<Self> {
         let camera = file.camera()?;
         let geom = file.geometry()?;
+        // Wide nodes, and triangle groups where the scene has no spheres: the bounce and shadow
+        // rays that the stream cannot trace as packets walk them one by one (docs/BENCHMARKS.md,
+        // "Wide nodes").
+        let leaves = if geom.spheres.is_empty() {
+            kdray::flat::Leaves::Groups
+        } else {
+            kdray::flat::Leaves::List
+        };
         let (words, build_ms) = build_words(
             &file.path,
             &geom,
-            &BuildParams::default(),
-            kdray::flat::Layout::default(),
-            kdray::flat::Leaves::default(),
+            &leaves.build_params(),
+            kdray::flat::Layout::Wide,
+            leaves,
         )?;
         let materials: Vec<Material> = file.materials.iter().map(|m| m.to_core()).collect();
         let scene = Scene::from_words(&words).map_err(|e| Error::new(&file.path, e.to_string()))?;

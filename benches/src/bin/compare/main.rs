@@ -155,6 +155,12 @@ fn main() {
             .expect("stream buffers sized by scratch_words");
         to_input_ids(&grouped, h);
     });
+    // Wide nodes over the grouped tree (`--layout wide`): single rays walk eight cells a step.
+    let wide = work.wide_scene();
+    run("kdray wide scalar", Family::Kdray, None, &mut |r, h| {
+        trace_scalar(&wide, r, h);
+        to_input_ids(&wide, h);
+    });
 
     let start = Instant::now();
     let bvh = BvhPeer::build(tris);

@@ -1,6 +1,7 @@
 //! The stream's work, for either query: coherent runs of the input as packets, then the rest
 //! sorted ([`super::order`]), the sorted coherent runs as packets, and what remains as interleaved
-//! single rays ([`super::interleave`]), walking the blocks when the scene has them.
+//! single rays ([`super::interleave`]), walking the blocks when the scene has them — or, when it
+//! has wide nodes, as single rays over them, one after another.
 
 use super::interleave;
 use super::order::{Coherence, key, origin_scale};
@@ -78,9 +79,10 @@ pub(crate) fn interleaved<A: Answer, C: Contents, const N: usize>(
     singles::<A, C, N>(scene, rays, 0..rays.len(), out);
 }
 
-/// Traces the rays `order` names as single rays, `N` walks in flight, answers into `out`: over
-/// the blocks when the scene has them and the core is built with the `blocked` feature (as
-/// the one-ray walk chooses, [`Scene::walk`]), else over the nodes.
+/// Traces the rays `order` names as single rays, answers into `out`: over the wide nodes one
+/// after another when the scene has them and the core is built with the `wide` feature (as the
+/// one-ray walk chooses, [`Scene::walk`]); else `N` walks in flight, over the blocks when the
+/// scene has them and the core is built with the `blocked` feature, else over the nodes.
 #[inline(always)]
 fn singles<A: Answer, C: Contents, const N: usize>(
     scene: &Scene,
@@ -93,6 +95,20 @@ fn singles<A: Answer, C: Contents, const N: usize>(
             *o = A::answer(q);
         }
     };
+    // Wide nodes, when the scene has them: one ray after another, each walk to its end (eight
+    // cells a step; nothing to gain from interleaving, which hides the binary walk's loads).
+    #[cfg(feature = "wide")]
+    if !scene.wide_nodes().is_empty() {
+        let mut finish = finish;
+        for i in order {
+            if let Some(ray) = rays.get(i) {
+                let mut q = A::query::<C>(ray);
+                crate::traverse::wide::walk::walk::<C, _>(scene, scene.wide_nodes(), ray, &mut q);
+                finish(i, &q);
+            }
+        }
+        return;
+    }
     #[cfg(feature = "blocked")]
     if let Some(blocks) = crate::traverse::blocked::walk::Blocks::new(scene) {
         return interleave::run::<_, C, A::Q, N>(&blocks, rays, order, A::query::<C>, finish);

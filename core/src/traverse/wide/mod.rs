@@ -1,5 +1,5 @@
-//! Wide nodes (format v10's optional wide section): the kd-tree collapsed into nodes of up to
-//! eight children, each child a cell of the binary tree with a conservative **tight box**, so
+//! Wide nodes (the format's optional wide section, since v10): the kd-tree collapsed into nodes
+//! of up to eight children, each child a cell of the binary tree with a conservative **tight box**, so
 //! that one ray decides a node's eight children in one 8-wide slab test, as wide BVHs are walked
 //! (Wald et al. 2008, "Getting rid of packets"; Ylitie et al. 2017, "Efficient incoherent ray
 //! traversal on GPUs through compressed wide BVHs"), while keeping what the kd-tree has: its SAH
@@ -18,19 +18,26 @@
 //!                (0..=8); bits 28..32 are 0
 //! ```
 //!
-//! # Which children: the cut three levels down
+//! # Which children: a greedy cut of up to eight
 //! Wide node `w` stands for an interior node `b` of the binary tree (the root for node 0) and its
-//! cell. Its children are the *cut* of `b`'s subtree three levels down ([`frontier`]): walking
-//! the subtree depth first, below child first, each node at depth 3 below `b`, and each leaf
-//! above that depth, is a child; empty leaves are dropped. A child that is a leaf is referenced
-//! as one; a child that is an interior node becomes the next wide node. Wide nodes are numbered
-//! in the order a depth-first walk (slot order) first enters them, so every reference points
-//! forward, as the node section's above-child indices do.
+//! cell. Its children are a *cut* of `b`'s subtree ([`frontier`]): starting from `b` alone, the
+//! cut grows by opening one of its interior nodes at a time — replacing it by its children,
+//! empty leaves dropped — first those whose opening adds no child (the other child is an empty
+//! leaf: the empty-space cut-offs of the SAH), then the one with the largest cell (as Embree
+//! collapses a binary BVH into wide nodes, the child likeliest to be entered opened first), while
+//! the cut has at most eight children. Format v10 took the cut three levels down: on the
+//! dragon's grouped tree, whose SAH cuts off empty space at a third of its interior nodes, that
+//! made 152,753 wide nodes of 1.98 children on average; the greedy cut makes 45,289 of 4.32, and
+//! a diffuse ray takes 9.4 wide steps instead of 196 (docs/BENCHMARKS.md, "Wide nodes"). A child that is a leaf is
+//! referenced as one; a child that is an interior node becomes the next wide node. Wide nodes are
+//! numbered in the order a depth-first walk (slot order) first enters them, so every reference
+//! points forward, as the node section's above-child indices do.
 //!
-//! The slots follow that walk, which is the front-to-back order for a direction with no negative
-//! component; the cells being disjoint and the split planes axis-aligned, the front-to-back
-//! order for any octant is the same walk with the near child first at each plane, the same for
-//! every ray of the octant. It is stored, not derived per node.
+//! The slots follow the subtree's depth-first walk, below child first, which is the
+//! front-to-back order for a direction with no negative component; the cells being disjoint and
+//! the split planes axis-aligned, the front-to-back order for any octant is the same walk with
+//! the near child first at each plane, the same for every ray of the octant. It is stored, not
+//! derived per node.
 //!
 //! # The boxes
 //! A slot's box lies inside its cell and contains what its child holds: for a leaf, the part of
@@ -65,11 +72,12 @@ pub const REFS: usize = 48;
 pub const ORDERS: usize = 56;
 /// A reference's leaf bit.
 pub const LEAF_REF: u32 = 1 << 31;
-/// Binary levels one wide node spans.
-pub const LEVELS: usize = 3;
-/// The deepest wide tree: each level but the last spans [`LEVELS`] binary levels, so a binary
-/// tree of [`crate::format::MAX_DEPTH`] levels needs at most this many.
-pub const MAX_WIDE_DEPTH: usize = crate::format::MAX_DEPTH.div_ceil(LEVELS) + 1;
+/// The deepest a wide node's cut reaches below the binary node it stands for: a node this deep
+/// in the subtree is never opened ([`frontier`]), which bounds a cut's path keys to this many bits.
+pub const MAX_OPEN_DEPTH: usize = 16;
+/// The deepest wide tree: every wide node spans at least one binary level, so a binary tree of
+/// [`crate::format::MAX_DEPTH`] levels needs at most this many.
+pub const MAX_WIDE_DEPTH: usize = crate::format::MAX_DEPTH + 1;
 /// Entries of a walk's stack: at most `WIDTH − 1` pending children per level.
 pub const STACK: usize = (WIDTH - 1) * MAX_WIDE_DEPTH;
 
@@ -77,6 +85,7 @@ pub const STACK: usize = (WIDTH - 1) * MAX_WIDE_DEPTH;
 pub type WideNode = [u32; NODE_WORDS];
 
 const _: () = assert!(ORDERS + WIDTH == NODE_WORDS && REFS + WIDTH == ORDERS);
+const _: () = assert!(MAX_OPEN_DEPTH <= 32);
 
 /// An axis-aligned box `[min, max]`.
 pub type Bounds = [Vec3; 2];
@@ -84,7 +93,7 @@ pub type Bounds = [Vec3; 2];
 /// The box no ray enters (an unused slot): low `+∞`, high `−∞`.
 pub const EMPTY_BOX: Bounds = [Vec3::INFINITY, Vec3::NEG_INFINITY];
 
-/// The children of one wide node, in slot order: the cut three levels down, see the module doc.
+/// The children of one wide node, in slot order: the greedy cut, see the module doc.
 #[derive(Clone, Copy, Debug)]
 pub struct Frontier {
     /// How many children (0 only for a tree that is one empty leaf).
@@ -99,64 +108,130 @@ pub struct Frontier {
     pub orders: [u32; WIDTH],
 }
 
-/// The cut three levels below node `root` of the binary tree `node(i)` (a validated tree: every
-/// child index in range), whose cell is `cell`.
+/// A node of the cut being grown: its index, cell and path from the cut's root.
+#[derive(Clone, Copy)]
+struct Item {
+    node: u32,
+    cell: Bounds,
+    /// How many levels below the cut's root.
+    depth: usize,
+    /// Bit `31 − d` set where the path went above at depth `d` (most significant first, so that
+    /// two paths compare as the walk below child first orders them).
+    path: u32,
+    /// Per axis, the bits of the depths whose split is along that axis.
+    axis_bits: [u32; 3],
+}
+
+impl Item {
+    /// The path's key for `octant`: each level's bit flipped where the direction is negative
+    /// along that level's axis (the near child first).
+    fn key(&self, octant: usize) -> u32 {
+        (0..3).fold(self.path, |key, a| {
+            if octant >> a & 1 != 0 {
+                key ^ self.axis_bits[a]
+            } else {
+                key
+            }
+        })
+    }
+}
+
+/// The surface area of `cell`, up to a factor 2 (the greedy cut's priority).
+#[inline]
+fn half_area(cell: &Bounds) -> f32 {
+    let d = cell[1] - cell[0];
+    d.x * d.y + d.y * d.z + d.z * d.x
+}
+
+/// The children of the wide node standing for node `root` of the binary tree `node(i)` (a
+/// validated tree: every child index in range), whose cell is `cell`: the **greedy cut** of its
+/// subtree. Starting from `root` alone, it repeatedly opens one interior node of the cut —
+/// replacing it by its children that are not empty leaves — as Embree collapses a binary BVH:
+/// first any whose opening adds no child (one child an empty leaf), else the one with the largest
+/// cell surface area (the likeliest to be entered; the first in slot order on a tie), as long as
+/// the cut keeps at most [`WIDTH`] children and the node lies less than [`MAX_OPEN_DEPTH`] levels
+/// below `root`. Deterministic in the node section alone, which is how validation recomputes it.
 pub fn frontier(node: impl Fn(u32) -> Node, root: u32, cell: Bounds) -> Frontier {
+    let mut items: heapless::Vec<Item, WIDTH> = heapless::Vec::new();
+    if !node(root).is_empty_leaf() {
+        let _ = items.push(Item {
+            node: root,
+            cell,
+            depth: 0,
+            path: 0,
+            axis_bits: [0; 3],
+        });
+    }
+    loop {
+        // The next node to open: (position, adds a child, area).
+        let mut best: Option<(usize, bool, f32)> = None;
+        for (k, item) in items.iter().enumerate() {
+            let n = node(item.node);
+            if n.is_leaf() || item.depth >= MAX_OPEN_DEPTH {
+                continue;
+            }
+            let adds = n.empty_children() == [false, false];
+            if adds && items.len() == WIDTH {
+                continue;
+            }
+            let area = half_area(&item.cell);
+            let better = match best {
+                None => true,
+                Some((_, best_adds, best_area)) => {
+                    (best_adds && !adds) || (best_adds == adds && area > best_area)
+                }
+            };
+            if better {
+                best = Some((k, adds, area));
+            }
+        }
+        let Some((k, _, _)) = best else { break };
+        let item = items[k];
+        let n = node(item.node);
+        let (axis, split) = (n.axis(), n.split());
+        let (mut below, mut above) = (item.cell, item.cell);
+        below[1][axis] = split;
+        above[0][axis] = split;
+        let bit = 1u32 << (31 - item.depth);
+        let mut axis_bits = item.axis_bits;
+        axis_bits[axis] |= bit;
+        let child = |node, cell, path| Item {
+            node,
+            cell,
+            depth: item.depth + 1,
+            path,
+            axis_bits,
+        };
+        let [below_empty, above_empty] = n.empty_children();
+        let mut children: heapless::Vec<Item, 2> = heapless::Vec::new();
+        if !below_empty {
+            let _ = children.push(child(item.node + 1, below, item.path));
+        }
+        if !above_empty {
+            let _ = children.push(child(n.above_child(), above, item.path | bit));
+        }
+        // In slot order: the opened node's place taken by its children, below first. The count
+        // was checked above, so the inserts cannot fail.
+        items.remove(k);
+        for (j, c) in children.into_iter().enumerate() {
+            let _ = items.insert(k + j, c);
+        }
+    }
     let mut f = Frontier {
-        count: 0,
+        count: items.len(),
         nodes: [0; WIDTH],
         cells: [EMPTY_BOX; WIDTH],
         leaves: [false; WIDTH],
         orders: [0; WIDTH],
     };
-    // Each child's path: bit (LEVELS − 1 − level) set where it went above, with the split axis
-    // of each level, to order it for every octant.
-    let mut paths = [(0u32, [0usize; LEVELS]); WIDTH];
-    // (node, cell, depth, path bits, axes); at most one pending above child per level.
-    let mut stack: heapless::Vec<(u32, Bounds, usize, u32, [usize; LEVELS]), LEVELS> =
-        heapless::Vec::new();
-    let mut current = Some((root, cell, 0usize, 0u32, [0usize; LEVELS]));
-    while let Some((i, cell, depth, path, axes)) = current {
-        let n = node(i);
-        if n.is_leaf() || depth == LEVELS {
-            if !n.is_empty_leaf() {
-                let k = f.count;
-                (f.nodes[k], f.cells[k], f.leaves[k]) = (i, cell, n.is_leaf());
-                paths[k] = (path, axes);
-                f.count += 1;
-            }
-            current = stack.pop();
-            continue;
-        }
-        let (axis, split) = (n.axis(), n.split());
-        let (mut below, mut above) = (cell, cell);
-        below[1][axis] = split;
-        above[0][axis] = split;
-        let mut axes = axes;
-        axes[depth] = axis;
-        let bit = 1 << (LEVELS - 1 - depth);
-        // At most one pending item per level below LEVELS: the push cannot fail.
-        let _ = stack.push((n.above_child(), above, depth + 1, path | bit, axes));
-        current = Some((i + 1, below, depth + 1, path, axes));
+    for (k, item) in items.iter().enumerate() {
+        (f.nodes[k], f.cells[k], f.leaves[k]) = (item.node, item.cell, node(item.node).is_leaf());
     }
     for (octant, order) in f.orders.iter_mut().enumerate() {
-        // A child's key for the octant: its path with each level's bit flipped where the
-        // direction is negative along that level's axis (the near child first).
-        let key = |(path, axes): (u32, [usize; LEVELS])| {
-            (0..LEVELS).fold(0, |key, level| {
-                let bit = 1 << (LEVELS - 1 - level);
-                let flip = if octant >> axes[level] & 1 != 0 {
-                    bit
-                } else {
-                    0
-                };
-                key | ((path & bit) ^ flip)
-            })
-        };
         let mut word = (f.count as u32) << 24;
-        for (slot, &p) in paths[..f.count].iter().enumerate() {
-            let k = key(p);
-            let rank = paths[..f.count].iter().filter(|&&q| key(q) < k).count();
+        for (slot, item) in items.iter().enumerate() {
+            let k = item.key(octant);
+            let rank = items.iter().filter(|q| q.key(octant) < k).count();
             word |= (slot as u32) << (3 * rank);
         }
         *order = word;
