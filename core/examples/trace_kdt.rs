@@ -5,7 +5,7 @@
 //! `data/cube.kdt` is a unit cube ([0, 1]³, 12 triangles) that the host tool built from
 //! `data/cube.obj`:
 //! ```sh
-//! kdray build core/examples/data/cube.obj -o core/examples/data/cube.kdt
+//! kdray build core/examples/data/cube.obj -o core/examples/data/cube.kdt --layout nodes --leaves list
 //! ```
 //! (again after a format version change: `Scene::from_words` then refuses the old file and asks
 //! for exactly that.) Run with `cargo run -p kdray-core --example trace_kdt`.
