@@ -161,6 +161,16 @@ fn main() {
         trace_scalar(&wide, r, h);
         to_input_ids(&wide, h);
     });
+    run("kdray wide packet 8", Family::Kdray, None, &mut |r, h| {
+        trace_packets::<f32x8>(&wide, r, h);
+        to_input_ids(&wide, h);
+    });
+    run("kdray wide stream", Family::Kdray, None, &mut |r, h| {
+        let words = kdray_core::traverse::stream::scratch_words(r.len());
+        kdray_core::traverse::stream::intersect(&wide, &config, r, h, &mut scratch[..words])
+            .expect("stream buffers sized by scratch_words");
+        to_input_ids(&wide, h);
+    });
 
     let start = Instant::now();
     let bvh = BvhPeer::build(tris);
