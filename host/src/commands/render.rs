@@ -140,7 +140,7 @@ impl Prepared {
     pub fn from_file(file: SceneFile) -> Result<Self> {
         let camera = file.camera()?;
         let geom = file.geometry()?;
-        let (words, build_ms) = build_words(
+        let (words, build_ms, _) = build_words(
             &file.path,
             &geom,
             &BuildParams::default(),
