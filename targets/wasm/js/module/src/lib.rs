@@ -23,8 +23,8 @@ mod unit;
 
 use core::cell::RefCell;
 use glam::Vec3;
-use kdray::crossings as all;
 use kdray::build::Quality;
+use kdray::crossings as all;
 use kdray::flat::{Layout, Leaves};
 use kdray_core::format::contents;
 use kdray_core::traverse::Mode;
