@@ -359,6 +359,12 @@ fn both_build_qualities_write_trees_and_report_the_peak_memory() {
         assert!(text.contains("800 triangles"), "{text}");
         if cfg!(target_os = "linux") {
             assert!(text.contains("peak_mib="), "{text}");
+            // The build's CPU time, a whole number of ms (ticks of 10 ms).
+            let cpu = text
+                .split("cpu_ms=")
+                .nth(1)
+                .and_then(|t| t.split(',').next());
+            assert!(cpu.is_some_and(|ms| ms.parse::<u64>().is_ok()), "{text}");
         }
         assert!(kdray(&["info", s(&kdt)]).status.success());
     }

@@ -51,8 +51,11 @@ impl Grid {
 
     #[inline]
     fn bin(&self, x: f32, axis: usize) -> usize {
-        // `as usize` saturates: below the box (rounding) gives 0, NaN cannot occur (finite input).
-        (((x - self.lo[axis]) * self.scale[axis]) as usize).min(self.bins - 1)
+        // Clamped as an i32, which costs a third of a saturating cast to usize: a bound below
+        // the box (rounding) goes to bin 0, one past it to the last; NaN cannot occur (finite
+        // input).
+        let b = ((x - self.lo[axis]) * self.scale[axis]) as i32;
+        b.clamp(0, self.bins as i32 - 1) as usize
     }
 
     /// The border below bin `b`.
@@ -73,17 +76,42 @@ impl Bins {
         }
     }
 
+    /// Empties the bins and makes them `bins` a axis.
+    fn reset(&mut self, bins: usize) {
+        self.bins = bins;
+        for v in [&mut self.starts, &mut self.ends] {
+            v.clear();
+            v.resize(3 * bins, 0);
+        }
+        self.contents = Aabb::EMPTY;
+    }
+
     /// Counts `refs` into the bins of `grid`.
     pub fn add(&mut self, refs: &[Ref], grid: &Grid) {
         let k = self.bins;
+        let (mut lo, mut hi) = (self.contents.min.to_array(), self.contents.max.to_array());
+        // One slice per axis and kind, each `k` long, so that a bin index clamped to `k - 1`
+        // needs no bounds check.
+        let (s0, rest) = self.starts.split_at_mut(k);
+        let (s1, s2) = rest.split_at_mut(k);
+        let (e0, rest) = self.ends.split_at_mut(k);
+        let (e1, e2) = rest.split_at_mut(k);
+        let starts = [s0, s1, &mut s2[..k]];
+        let ends = [e0, e1, &mut e2[..k]];
+        let last = k - 1;
         for r in refs {
-            let b = &r.bounds;
+            let (bmin, bmax) = (r.bounds.min.to_array(), r.bounds.max.to_array());
             for axis in 0..3 {
-                self.starts[axis * k + grid.bin(b.min[axis], axis)] += 1;
-                self.ends[axis * k + grid.bin(b.max[axis], axis)] += 1;
+                starts[axis][grid.bin(bmin[axis], axis).min(last)] += 1;
+                ends[axis][grid.bin(bmax[axis], axis).min(last)] += 1;
+                lo[axis] = lo[axis].min(bmin[axis]);
+                hi[axis] = hi[axis].max(bmax[axis]);
             }
-            self.contents = self.contents.union(b);
         }
+        self.contents = Aabb {
+            min: lo.into(),
+            max: hi.into(),
+        };
     }
 
     /// The sum of two partial binnings of one node.
@@ -153,40 +181,48 @@ impl Bins {
     }
 }
 
-/// Bins `refs` over `bounds` and returns the best plane; the bins of a large node are counted in
-/// fixed chunks on the rayon pool (with the `cli` feature and `parallel`), and the counts are the
-/// same whatever the thread count.
+/// Bins `refs` over `bounds` and returns the best plane and the union of the boxes (the
+/// contents); the bins of a large node are counted in fixed chunks on the rayon pool (with the
+/// `cli` feature and `parallel`), and the counts are the same whatever the thread count.
 pub fn best_split(
     refs: &[Ref],
     bounds: &Aabb,
     bins: usize,
     costs: &Costs,
     parallel: bool,
-) -> Option<Split> {
+) -> Option<(Split, Aabb)> {
     let grid = Grid::new(bounds, bins);
-    let counted = count(refs, &grid, parallel);
-    counted.best_split(refs.len(), bounds, &grid, costs)
+    let best = |b: &Bins| Some((b.best_split(refs.len(), bounds, &grid, costs)?, b.contents));
+    #[cfg(feature = "parallel")]
+    if parallel && refs.len() >= 4 * CHUNK {
+        return best(&count_parallel(refs, &grid));
+    }
+    let _ = parallel;
+    // One set of bins a thread, reused: most binned nodes are small.
+    SERIAL.with_borrow_mut(|b| {
+        b.reset(bins);
+        b.add(refs, &grid);
+        best(b)
+    })
+}
+
+thread_local! {
+    static SERIAL: core::cell::RefCell<Bins> = core::cell::RefCell::new(Bins::new(0));
 }
 
 /// Refs per parallel binning task.
+#[cfg(feature = "parallel")]
 const CHUNK: usize = 16 * 1024;
 
-fn count(refs: &[Ref], grid: &Grid, parallel: bool) -> Bins {
-    #[cfg(feature = "parallel")]
-    if parallel && refs.len() >= 4 * CHUNK {
-        use rayon::prelude::*;
-        return refs
-            .par_chunks(CHUNK)
-            .map(|c| {
-                let mut b = Bins::new(grid.bins);
-                b.add(c, grid);
-                b
-            })
-            .reduce_with(|a, b| a.merge(&b))
-            .unwrap_or_else(|| Bins::new(grid.bins));
-    }
-    let _ = (parallel, CHUNK);
-    let mut b = Bins::new(grid.bins);
-    b.add(refs, grid);
-    b
+#[cfg(feature = "parallel")]
+fn count_parallel(refs: &[Ref], grid: &Grid) -> Bins {
+    use rayon::prelude::*;
+    refs.par_chunks(CHUNK)
+        .map(|c| {
+            let mut b = Bins::new(grid.bins);
+            b.add(c, grid);
+            b
+        })
+        .reduce_with(|a, b| a.merge(&b))
+        .unwrap_or_else(|| Bins::new(grid.bins))
 }

@@ -155,6 +155,60 @@ pub fn clip_triangle(tri: &[Vec3; 3], bounds: &Aabb) -> Option<Aabb> {
     Some(out.intersection(bounds))
 }
 
+/// The f32 bounds of the parts of triangle `tri` below and above the plane `axis = pos`, each
+/// cut by `within` and by its side of the plane, or `None` for a side the triangle does not
+/// reach. `within` must contain the part of the triangle that matters (its part inside the node,
+/// whose box `within` already bounds): the result then bounds the part inside each child.
+///
+/// One plane instead of the cell's six (Embree's spatial splits split a reference's box this way,
+/// Stich, Friedrich & Dietrich 2009, §4.1): the same box as [`clip_triangle`] when the triangle
+/// crosses no other plane of the cell, a looser one when it also crosses the cell's walls. The
+/// crossings are computed in f64 and rounded outward, as [`clip_triangle`] does.
+pub fn split_triangle(
+    tri: &[Vec3; 3],
+    axis: usize,
+    pos: f32,
+    within: &Aabb,
+) -> (Option<Aabb>, Option<Aabb>) {
+    let plane = pos as f64;
+    let v = tri.map(|p| p.as_dvec3());
+    let (mut lo_b, mut hi_b) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let (mut lo_a, mut hi_a) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for i in 0..3 {
+        let (a, b) = (v[i], v[(i + 1) % 3]);
+        if a[axis] <= plane {
+            (lo_b, hi_b) = (lo_b.min(a), hi_b.max(a));
+        }
+        if a[axis] >= plane {
+            (lo_a, hi_a) = (lo_a.min(a), hi_a.max(a));
+        }
+        if (a[axis] < plane && b[axis] > plane) || (a[axis] > plane && b[axis] < plane) {
+            let s = (plane - a[axis]) / (b[axis] - a[axis]);
+            let mut p = a + (b - a) * s;
+            p[axis] = plane; // exactly on the plane, whatever the rounding of s
+            (lo_b, hi_b) = (lo_b.min(p), hi_b.max(p));
+            (lo_a, hi_a) = (lo_a.min(p), hi_a.max(p));
+        }
+    }
+    let side = |lo: DVec3, hi: DVec3, below: bool| {
+        if lo.x > hi.x {
+            return None;
+        }
+        let mut b = Aabb {
+            min: Vec3::new(round_down(lo.x), round_down(lo.y), round_down(lo.z)),
+            max: Vec3::new(round_up(hi.x), round_up(hi.y), round_up(hi.z)),
+        }
+        .intersection(within);
+        if below {
+            b.max[axis] = b.max[axis].min(pos);
+        } else {
+            b.min[axis] = b.min[axis].max(pos);
+        }
+        (!b.is_empty()).then_some(b)
+    };
+    (side(lo_b, hi_b, true), side(lo_a, hi_a, false))
+}
+
 /// The box of a sphere, cut by `bounds`, or `None` when they do not meet.
 pub fn clip_sphere(center: Vec3, radius: f32, bounds: &Aabb) -> Option<Aabb> {
     let c = center.as_dvec3();
@@ -200,6 +254,43 @@ mod tests {
             max: Vec3::new(6.0, 6.0, 1.0),
         };
         assert!(clip_triangle(&tri, &far).is_none());
+    }
+
+    #[test]
+    fn a_split_by_one_plane_bounds_each_side_and_is_the_clip_where_no_other_wall_is_crossed() {
+        let tri = [
+            Vec3::new(0.1, 0.2, 0.3),
+            Vec3::new(0.9, 0.3, 0.5),
+            Vec3::new(0.4, 0.8, 0.7),
+        ];
+        let cell = Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        };
+        // Inside the cell but for the plane: the same boxes as the exact clip.
+        for (axis, pos) in [(0, 0.5), (1, 0.25), (2, 0.6)] {
+            let within = clip_triangle(&tri, &cell).unwrap();
+            let (b, a) = split_triangle(&tri, axis, pos, &within);
+            let (below, above) = cell.split(axis, pos);
+            assert_eq!(b, clip_triangle(&tri, &below), "axis {axis}");
+            assert_eq!(a, clip_triangle(&tri, &above), "axis {axis}");
+        }
+        // Crossing another wall too: each side still contains the exact clip of its child cell.
+        let small = Aabb {
+            min: Vec3::new(0.3, 0.0, 0.0),
+            max: Vec3::new(0.7, 0.5, 1.0),
+        };
+        let within = clip_triangle(&tri, &small).unwrap();
+        let (b, a) = split_triangle(&tri, 1, 0.35, &within);
+        let (below, above) = small.split(1, 0.35);
+        for (got, cell) in [(b.unwrap(), below), (a.unwrap(), above)] {
+            let exact = clip_triangle(&tri, &cell).unwrap();
+            assert_eq!(got.union(&exact), got, "{got:?} contains {exact:?}");
+            assert_eq!(got.intersection(&cell), got, "{got:?} inside {cell:?}");
+        }
+        // A plane the triangle does not reach leaves one side empty.
+        let (b, a) = split_triangle(&tri, 0, 0.05, &within);
+        assert!(b.is_none() && a.is_some());
     }
 
     #[test]

@@ -2,18 +2,25 @@
 //! budget as the event builder, over a list of primitive references, each carrying its clipped
 //! box, instead of three sorted event lists.
 //!
-//! Per node: a node of at least [`BIN_MIN`] references finds its plane by binning
-//! ([`super::binned`], [`BINS`] bins per axis); a smaller one sorts its boxes' events and sweeps
-//! them exactly ([`events::best_split_on_axis`]). The partition compares each box with the plane;
-//! a straddling primitive is clipped exactly to each child (perfect splits, [`super::clip`]) in
-//! nodes of at least [`FastParams::clip_min`] references, and below that keeps its box cut by the
-//! plane, which costs nothing but is looser (measured: it does not pay, so the default clips
-//! everywhere). Children are built in parallel like the event builder's, and the tree depends on
-//! nothing but the input and the parameters.
+//! Per node: a node of at least [`FastParams::bin_min`] references finds its plane by binning
+//! ([`super::binned`], [`FastParams::bins`] bins per axis); a smaller one sorts its boxes' events
+//! and sweeps them exactly ([`events::best_split_on_axis`]). The partition compares each box with
+//! the plane; a straddling primitive is clipped exactly to each child (perfect splits,
+//! [`super::clip::clip_triangle`]) in nodes of at least [`FastParams::clip_min`] references, and
+//! below that (by default everywhere) split by the plane alone ([`super::clip::split_triangle`]:
+//! its part on each side, within its box), which is exact where the triangle crosses no other
+//! wall of the cell and otherwise looser. A plane at the contents' extent (a cut-off of empty
+//! space) moves no reference. Children are built in parallel like the event builder's, and the
+//! tree depends on nothing but the input and the parameters.
+//!
+//! Memory: a subtree built on one thread keeps its references on one stack (a `Vec<Ref>`): a
+//! node's references are the stack's top; partitioning puts the above child's references in their
+//! place and the below child's on top of them, the below subtree is built (and pops its own), then
+//! the above one. No allocation per node but the leaves' lists.
 //!
 //! What it saves: the event builder splits three event lists at every level, some 20–30 levels
-//! for each triangle; here a large node costs a pass over its boxes, a small one three sorts of
-//! its events' keys (docs/BUILD.md, "Quality").
+//! for each triangle; here a node costs a pass over its boxes to bin them and one to partition
+//! them, and only the smallest nodes sort their events' keys (docs/BUILD.md, "Quality").
 
 use super::clip::Aabb;
 use super::events::{self, Event, Split};
@@ -33,7 +40,8 @@ pub struct FastParams {
     pub bins: usize,
     /// Nodes of at least this many references are binned; smaller ones are swept exactly.
     pub bin_min: usize,
-    /// Nodes of at least this many references clip straddlers exactly (perfect splits).
+    /// Nodes of at least this many references clip straddlers exactly (perfect splits); smaller
+    /// ones split them by the plane alone.
     pub clip_min: usize,
 }
 
@@ -50,54 +58,112 @@ impl Default for FastParams {
 /// [`FastParams::bins`]'s default.
 pub const BINS: usize = 32;
 /// [`FastParams::bin_min`]'s default.
-pub const BIN_MIN: usize = 256;
-/// [`FastParams::clip_min`]'s default.
-pub const CLIP_MIN: usize = 0;
+pub const BIN_MIN: usize = 32;
+/// [`FastParams::clip_min`]'s default: no node clips exactly; every straddler is split by the
+/// plane alone (docs/BUILD.md, "Quality").
+pub const CLIP_MIN: usize = usize::MAX;
 
 /// Below this many references children are built on the current thread.
 const PARALLEL_MIN: usize = 2048;
 
-/// Builds the subtree over `refs` inside `bounds`.
-pub(super) fn build_node(
+/// Builds the tree over `refs` inside `bounds` (the root).
+pub(super) fn build(ctx: &Ctx, mut refs: Vec<Ref>, bounds: Aabb, share: Share) -> BuildNode {
+    build_node(ctx, &mut refs, 0, bounds, 0, 0, share)
+}
+
+/// Builds the subtree over `stack[start..]` inside `bounds`, and truncates `stack` to `start`.
+fn build_node(
     ctx: &Ctx,
-    refs: Vec<Ref>,
+    stack: &mut Vec<Ref>,
+    start: usize,
     bounds: Aabb,
     depth: u32,
     bad_refines: u32,
     share: Share,
 ) -> BuildNode {
-    let n = refs.len();
-    let leaf =
-        |ctx: &Ctx, refs: Vec<Ref>| ctx.leaf(refs.iter().map(|r| r.id).collect(), share.weight);
+    let n = stack.len() - start;
+    let leaf = |stack: &mut Vec<Ref>| {
+        let ids = stack[start..].iter().map(|r| r.id).collect();
+        stack.truncate(start);
+        ctx.leaf(ids, share.weight)
+    };
     if !ctx.may_split(depth, n, share.refs) {
-        return leaf(ctx, refs);
+        return leaf(stack);
     }
     let (parallel, fast) = (ctx.params.parallel, &ctx.params.fast);
-    let best = if n >= fast.bin_min {
-        binned::best_split(&refs, &bounds, fast.bins.max(2), &ctx.costs, parallel)
+    let refs = &stack[start..];
+    let (best, contents) = if n >= fast.bin_min {
+        let bins = bins_for(n, fast.bins);
+        match binned::best_split(refs, &bounds, bins, &ctx.costs, parallel) {
+            Some((s, c)) => (Some(s), Some(c)),
+            None => (None, None),
+        }
     } else {
-        exact_split(&refs, &bounds, ctx)
+        (exact_split(refs, &bounds, ctx), None)
     };
     let Some((split, bad_refines)) = best.and_then(|s| ctx.accept(s, n, bad_refines)) else {
-        return leaf(ctx, refs);
+        return leaf(stack);
     };
     let (below_box, above_box) = bounds.split(split.axis, split.pos);
-    let (below, above) = partition(ctx, &refs, &split, &below_box, &above_box);
-    drop(refs);
-    let (sb, sa) = share.split(below.len(), above.len());
-    let build_below = || build_node(ctx, below, below_box, depth + 1, bad_refines, sb);
-    let build_above = || build_node(ctx, above, above_box, depth + 1, bad_refines, sa);
-    let children = join(parallel && n >= PARALLEL_MIN, build_below, build_above);
+    // A plane at the contents' extent cuts off empty space: every reference stays, unchanged,
+    // on the contents' side (`side` says so of each), and the partition is skipped.
+    let (nb, na) = match contents {
+        Some(c) if split.pos <= c.min[split.axis] && !split.planar_below => (0, n),
+        Some(c) if split.pos >= c.max[split.axis] && split.planar_below => {
+            // Below goes on top: here the only child, already in place.
+            (n, 0)
+        }
+        _ => partition(ctx, stack, start, &split, &below_box, &above_box),
+    };
+    let (sb, sa) = share.split(nb, na);
+    let (below, above) = if parallel && n >= PARALLEL_MIN {
+        // Each child on a stack of its own, so that the two can be built at once. A node this
+        // large has its stack to itself (no ancestor of a node smaller than PARALLEL_MIN is
+        // parallel, and a child is never larger than its parent): the above child takes it over.
+        let mut b = stack[start + na..].to_vec();
+        let mut a = if start == 0 {
+            stack.truncate(na);
+            core::mem::take(stack)
+        } else {
+            let a = stack[start..start + na].to_vec();
+            stack.truncate(start);
+            a
+        };
+        join(
+            true,
+            || build_node(ctx, &mut b, 0, below_box, depth + 1, bad_refines, sb),
+            || build_node(ctx, &mut a, 0, above_box, depth + 1, bad_refines, sa),
+        )
+    } else {
+        let below = build_node(
+            ctx,
+            stack,
+            start + na,
+            below_box,
+            depth + 1,
+            bad_refines,
+            sb,
+        );
+        let above = build_node(ctx, stack, start, above_box, depth + 1, bad_refines, sa);
+        (below, above)
+    };
     BuildNode::Interior {
         axis: split.axis as u8,
         split: split.pos,
-        children: Box::new([children.0, children.1]),
+        children: Box::new([below, above]),
     }
+}
+
+/// Bins for a node of `n` references: `bins`, or fewer for small nodes (at least 8), whose
+/// pricing would otherwise cost more than their counting.
+fn bins_for(n: usize, bins: usize) -> usize {
+    bins.min((n / 2).max(8)).max(2)
 }
 
 thread_local! {
     static EXACT: core::cell::RefCell<(Vec<u64>, Vec<Event>)> =
         const { core::cell::RefCell::new((Vec::new(), Vec::new())) };
+    static BELOW: core::cell::RefCell<Vec<Ref>> = const { core::cell::RefCell::new(Vec::new()) };
 }
 
 /// The exact sweep of a small node: its boxes' events sorted on each axis. The sweep needs no
@@ -155,51 +221,49 @@ fn side(r: &Ref, split: &Split) -> Side {
     }
 }
 
-/// Sends each reference below, above or both ways ([`side`]); straddlers are clipped to each
-/// child. The children's lists are counted first and allocated once.
+/// Sends each reference of `stack[start..]` below, above or both ways ([`side`]), straddlers
+/// clipped to each child, each child's references in their parent's order. Leaves the above
+/// child's `na` references at `stack[start..start + na]` and the below child's `nb` on top of
+/// them, and returns `(nb, na)`.
 fn partition(
     ctx: &Ctx,
-    refs: &[Ref],
+    stack: &mut Vec<Ref>,
+    start: usize,
     split: &Split,
     below_box: &Aabb,
     above_box: &Aabb,
-) -> (Vec<Ref>, Vec<Ref>) {
-    let (axis, pos) = (split.axis, split.pos);
-    let exact = refs.len() >= ctx.params.fast.clip_min;
-    let (mut nb, mut na) = (0, 0);
-    for r in refs {
-        match side(r, split) {
-            Side::Below => nb += 1,
-            Side::Above => na += 1,
-            Side::Both => (nb, na) = (nb + 1, na + 1),
-        }
-    }
-    let (mut below, mut above) = (Vec::with_capacity(nb), Vec::with_capacity(na));
-    for r in refs {
-        match side(r, split) {
-            Side::Below => below.push(*r),
-            Side::Above => above.push(*r),
-            Side::Both if exact => {
-                let b = ctx.clip(r.id, below_box);
-                let a = ctx.clip(r.id, above_box);
-                // Rounding can in principle empty both: keep the primitive, conservatively,
-                // below.
-                let b = if b.is_none() && a.is_none() {
-                    Some(r.bounds.intersection(below_box))
-                } else {
-                    b
-                };
-                below.extend(b.map(|bounds| Ref { id: r.id, bounds }));
-                above.extend(a.map(|bounds| Ref { id: r.id, bounds }));
-            }
-            Side::Both => {
-                let (mut b, mut a) = (*r, *r);
-                b.bounds.max[axis] = pos;
-                a.bounds.min[axis] = pos;
-                below.push(b);
-                above.push(a);
+) -> (usize, usize) {
+    BELOW.with_borrow_mut(|below| {
+        let end = stack.len();
+        let exact = end - start >= ctx.params.fast.clip_min;
+        below.clear();
+        // The above child's references go on top of the stack, the below child's aside.
+        for i in start..end {
+            let r = stack[i];
+            match side(&r, split) {
+                Side::Below => below.push(r),
+                Side::Above => stack.push(r),
+                Side::Both => {
+                    let (b, a) = if exact {
+                        (ctx.clip(r.id, below_box), ctx.clip(r.id, above_box))
+                    } else {
+                        ctx.prims.split(r.id, split.axis, split.pos, &r.bounds)
+                    };
+                    // Rounding can in principle empty both: keep the primitive,
+                    // conservatively, below.
+                    let b = match (b, a) {
+                        (None, None) => Some(r.bounds.intersection(below_box)),
+                        _ => b,
+                    };
+                    below.extend(b.map(|bounds| Ref { id: r.id, bounds }));
+                    stack.extend(a.map(|bounds| Ref { id: r.id, bounds }));
+                }
             }
         }
-    }
-    (below, above)
+        let na = stack.len() - end;
+        stack.copy_within(end.., start);
+        stack.truncate(start + na);
+        stack.extend_from_slice(below);
+        (below.len(), na)
+    })
 }

@@ -66,6 +66,18 @@ impl Prims<'_> {
         }
     }
 
+    /// The bounds of primitive `id`'s parts below and above the plane `axis = pos`, within
+    /// `within` (its box in the node): [`clip::split_triangle`], or the box cut for a sphere.
+    fn split(&self, id: u32, axis: usize, pos: f32, within: &Aabb) -> (Option<Aabb>, Option<Aabb>) {
+        match self.tris.get(id as usize) {
+            Some(tri) => clip::split_triangle(tri, axis, pos, within),
+            None => {
+                let (b, a) = within.split(axis, pos);
+                ((!b.is_empty()).then_some(b), (!a.is_empty()).then_some(a))
+            }
+        }
+    }
+
     fn bounds(&self, id: u32) -> Aabb {
         match self.tris.get(id as usize) {
             Some(tri) => Aabb::around(tri),
@@ -224,7 +236,7 @@ pub fn build(
             .map(|(&id, &bounds)| fast::Ref { id, bounds })
             .collect();
         drop((live, boxes));
-        let root = fast::build_node(&ctx, refs, bounds, 0, 0, share);
+        let root = fast::build(&ctx, refs, bounds, share);
         return Ok(Tree { root, bounds });
     }
     let events: [Vec<Event>; 3] = core::array::from_fn(|axis| {

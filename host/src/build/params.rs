@@ -42,8 +42,8 @@ pub enum Quality {
     /// The exact event sweep with perfect splits at every node (Wald & Havran 2006).
     #[default]
     High,
-    /// Binned planes on large nodes, the exact sweep on small ones ([`fast`]); perfect splits
-    /// at every node by default ([`fast::FastParams::clip_min`]).
+    /// Binned planes on all but the smallest nodes, the exact sweep on those ([`fast`]);
+    /// straddlers split by the plane alone by default ([`fast::FastParams::clip_min`]).
     Fast,
 }
 

@@ -46,8 +46,9 @@ pub struct BuildArgs {
     #[arg(long, value_enum)]
     pub leaves: Option<flat::Leaves>,
     /// How hard the builder searches: `high` (the exact sweep and perfect splits at every node)
-    /// or `fast` (binned planes on nodes of 256 primitives and more; about 1.4-2x faster, rays
-    /// about 3 % slower: docs/BUILD.md, "Quality"). Same format either way.
+    /// or `fast` (binned planes on nodes of 32 primitives and more, straddlers split by the plane
+    /// alone; about 2x faster than `high`, diffuse rays about 7 % more instructions: docs/BUILD.md,
+    /// "Quality"). Same format either way.
     #[arg(long, value_enum, default_value_t = Quality::default())]
     pub quality: Quality,
 }
@@ -116,15 +117,16 @@ fn parse_bonus(s: &str) -> core::result::Result<f64, String> {
     }
 }
 
-/// Builds `geom` with a progress bar; returns the words and the build time in ms. Geometry the
-/// flat format cannot hold is refused first, naming `path` (the input).
+/// Builds `geom` with a progress bar; returns the words, the build time in ms and the process's
+/// CPU time during the build in ms ([`process_cpu_ms`], `None` where the system does not say).
+/// Geometry the flat format cannot hold is refused first, naming `path` (the input).
 pub fn build_words(
     path: &Path,
     geom: &Geometry,
     params: &BuildParams,
     layout: flat::Layout,
     leaves: flat::Leaves,
-) -> Result<(Vec<u32>, f64)> {
+) -> Result<(Vec<u32>, f64, Option<f64>)> {
     load::check_buildable(path, geom)?;
     let prims = (geom.triangles.len() + geom.spheres.len()) as u64;
     kdray::memory::ensure(
@@ -144,13 +146,14 @@ pub fn build_words(
     );
     // The build runs on its own thread and times itself, so the progress polling adds nothing
     // to build_ms.
-    let (tree, build_ms) = with_progress(
+    let (tree, build_ms, cpu_ms) = with_progress(
         &bar,
         || progress.load(Ordering::Relaxed) * 1000 / PROGRESS_TOTAL,
         || {
-            let t0 = Instant::now();
+            let (t0, c0) = (Instant::now(), process_cpu_ms());
             let tree = kdray::build::build(geom, params, Some(&progress));
-            (tree, t0.elapsed().as_secs_f64() * 1e3)
+            let cpu = c0.zip(process_cpu_ms()).map(|(a, b)| b - a);
+            (tree, t0.elapsed().as_secs_f64() * 1e3, cpu)
         },
     );
     let tree = tree.map_err(|e| Error::new(path, e))?;
@@ -160,7 +163,19 @@ pub fn build_words(
         let msg = format!("the built tree does not validate ({e}): please report this input");
         return Err(Error::new(path, msg));
     }
-    Ok((words, build_ms))
+    Ok((words, build_ms, cpu_ms))
+}
+
+/// The CPU time the process (all its threads, user and system) has used, in ms to the kernel's
+/// tick (10 ms), from Linux's `/proc/self/stat`; `None` elsewhere. On a loaded machine a serial
+/// build's CPU time varies less than its wall time.
+fn process_cpu_ms() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The fields after the command name (in parentheses, which may hold spaces): state is the
+    // 3rd field of the line, utime and stime the 14th and 15th, in ticks of 1/100 s (USER_HZ).
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i)?.parse::<u64>().ok();
+    Some((ticks(11)? + ticks(12)?) as f64 * 10.0)
 }
 
 /// Loads a `.kdt`, or loads and builds anything else (refusing to write over an input named in
@@ -179,7 +194,7 @@ pub fn load_scene_words(
     }
     let geom = input::load_input(path, outputs)?;
     let leaves = args.leaves_for(&geom);
-    let (words, ms) = build_words(path, &geom, &args.params(leaves), args.layout, leaves)?;
+    let (words, ms, _) = build_words(path, &geom, &args.params(leaves), args.layout, leaves)?;
     Ok((words, Some(ms)))
 }
 
@@ -203,9 +218,13 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
     reset_peak_resident();
     // A file may go to a target whose core leaves the group kernels out: lists unless asked.
     let leaves = args.leaves.unwrap_or(flat::Leaves::List);
-    let (words, build_ms) = build_words(input, &geom, &args.params(leaves), args.layout, leaves)?;
+    let (words, build_ms, cpu_ms) =
+        build_words(input, &geom, &args.params(leaves), args.layout, leaves)?;
     let peak = peak_resident()
         .map(|b| format!(", peak_mib={}", b.div_ceil(1 << 20)))
+        .unwrap_or_default();
+    let cpu = cpu_ms
+        .map(|ms| format!(", cpu_ms={ms:.0}"))
         .unwrap_or_default();
     let scene = Scene::from_words(&words).map_err(|e| Error::new(input, e.to_string()))?;
     // Both outputs are made, then staged, before either is put in place: a description that
@@ -224,7 +243,7 @@ pub fn build(input: &Path, out: &Path, description: Option<&Path>, args: &BuildA
     files::commit_all(staged)?;
     let desc = desc.map(|(path, d)| (path, d.len()));
     println!(
-        "wrote {}: {} triangles, {} spheres, {} nodes, {} bytes, build_ms={build_ms:.1}{peak}",
+        "wrote {}: {} triangles, {} spheres, {} nodes, {} bytes, build_ms={build_ms:.1}{cpu}{peak}",
         out.display(),
         scene.tri_count(),
         scene.sphere_count(),

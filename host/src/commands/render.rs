@@ -147,7 +147,7 @@ impl Prepared {
         } else {
             kdray::flat::Leaves::List
         };
-        let (words, build_ms) = build_words(
+        let (words, build_ms, _) = build_words(
             &file.path,
             &geom,
             &leaves.build_params(),

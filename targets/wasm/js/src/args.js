@@ -6,7 +6,7 @@
 /** WebAssembly's limit on a module's memory, in bytes (65,536 pages of 64 KiB). */
 export const MEMORY_LIMIT = 2 ** 32;
 
-const BUILD_OPTIONS = ['watertight', 'layout', 'leaves'];
+const BUILD_OPTIONS = ['watertight', 'layout', 'leaves', 'quality'];
 const LOAD_OPTIONS = ['watertight'];
 
 function checkOptions(options, known, call) {
@@ -33,21 +33,27 @@ export function loadOptions(options) {
 }
 
 /**
- * kdj_build's `layout` and `leaves` arguments from a build's options: `layout` 'nodes' (default)
- * or 'blocked'; `leaves` 'groups' (default: triangles four to a SIMD group, tested at once) or
- * 'list' (index lists: about half the memory, slower single rays). Anything else throws.
+ * kdj_build's `layout`, `leaves` and `quality` arguments from a build's options: `layout`
+ * 'nodes' (default) or 'blocked'; `leaves` 'groups' (default: triangles four to a SIMD group,
+ * tested at once) or 'list' (index lists: about half the memory, slower single rays); `quality`
+ * 'fast' (default: binned planes, the builder's `--quality fast`) or 'high' (the exact sweep at
+ * every node: a slower build of a tree a few per cent cheaper to trace). Anything else throws.
  */
 export function buildFlags(options) {
   checkOptions(options, BUILD_OPTIONS, 'Scene.build');
   const layout = options?.layout ?? 'nodes';
   const leaves = options?.leaves ?? 'groups';
+  const quality = options?.quality ?? 'fast';
   if (layout !== 'nodes' && layout !== 'blocked') {
     throw new TypeError(`kdray: options.layout must be 'nodes' or 'blocked', not ${JSON.stringify(layout)}`);
   }
   if (leaves !== 'groups' && leaves !== 'list') {
     throw new TypeError(`kdray: options.leaves must be 'groups' or 'list', not ${JSON.stringify(leaves)}`);
   }
-  return [layout === 'blocked' ? 1 : 0, leaves === 'groups' ? 1 : 0];
+  if (quality !== 'fast' && quality !== 'high') {
+    throw new TypeError(`kdray: options.quality must be 'fast' or 'high', not ${JSON.stringify(quality)}`);
+  }
+  return [layout === 'blocked' ? 1 : 0, leaves === 'groups' ? 1 : 0, quality === 'fast' ? 1 : 0];
 }
 
 function describe(x) {

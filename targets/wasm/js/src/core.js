@@ -150,13 +150,13 @@ function outOfMemory(kd, what) {
 let builder = null;
 const BUILDER_KEEP = 256 * 2 ** 20;
 
-function buildWords(kd, positions, indices, layout, leaves) {
+function buildWords(kd, positions, indices, [layout, leaves, quality]) {
   const b = builder ?? (builder = new WebAssembly.Instance(compiled, {}).exports);
   let pos = 0, idx = 0, handle = 0;
   try {
     pos = positions.length ? put(b, positions, 'the positions') : 0;
     idx = indices ? put(b, indices.length ? indices : new Uint32Array(1), 'the indices') : 0;
-    handle = b.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
+    handle = b.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves, quality);
     if (handle < 0) throw failure(b, handle, 'cannot build the mesh');
   } catch (e) {
     if (!(e instanceof WebAssembly.RuntimeError)) throw e;
@@ -291,9 +291,9 @@ export class Scene {
   /** Scene.build once the module is loaded (`await init()`). */
   static buildSync(positions, indices, options) {
     [positions, indices, options] = meshArgs(positions, indices, options);
-    const [layout, leaves] = buildFlags(options);
+    const flags = buildFlags(options);
     const kd = exportsOrThrow();
-    return new Scene(buildWords(kd, positions, indices, layout, leaves), options);
+    return new Scene(buildWords(kd, positions, indices, flags), options);
   }
 
   /** A scene from the bytes of a `.kdt` (`kdray build`, or `scene.toBytes()`). */

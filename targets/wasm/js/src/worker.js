@@ -11,7 +11,7 @@ import { buildFlags, meshArgs } from './args.js';
 const SOURCE = `
 const port = typeof self !== 'undefined' ? self : require('node:worker_threads').parentPort;
 const on = (f) => (typeof self !== 'undefined' ? (self.onmessage = (e) => f(e.data)) : port.on('message', f));
-on(async ({ module, positions, indices, layout, leaves, shared }) => {
+on(async ({ module, positions, indices, layout, leaves, quality, shared }) => {
   try {
     const kd = (await WebAssembly.instantiate(module, {})).exports;
     const put = (a) => { const b = new Uint8Array(a.buffer, a.byteOffset, a.byteLength); const p = kd.kdj_alloc(b.length || 1) >>> 0; if (!p) throw new Error('out of memory for ' + b.length + ' bytes of input'); new Uint8Array(kd.memory.buffer, p, b.length).set(b); return p; };
@@ -19,7 +19,7 @@ on(async ({ module, positions, indices, layout, leaves, shared }) => {
     const idx = indices ? put(indices) : 0;
     let h;
     try {
-      h = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves);
+      h = kd.kdj_build(pos, positions.length, idx, indices ? indices.length : 0, layout, leaves, quality);
     } catch (e) {
       const failed = kd.kdj_failed_alloc() >>> 0;
       if (!(e instanceof WebAssembly.RuntimeError) || failed === 0) throw e;
@@ -67,14 +67,14 @@ async function spawn() {
  */
 export async function buildInWorker(positions, indices, options) {
   [positions, indices, options] = meshArgs(positions, indices, options);
-  const [layout, leaves] = buildFlags(options);
+  const [layout, leaves, quality] = buildFlags(options);
   await init();
   const shared = typeof SharedArrayBuffer === 'function' && globalThis.crossOriginIsolated === true;
   const worker = await spawn();
   try {
     const reply = await new Promise((resolve) => {
       worker.once(resolve);
-      worker.post({ module: compiledModule(), positions, indices: indices ?? null, layout, leaves, shared });
+      worker.post({ module: compiledModule(), positions, indices: indices ?? null, layout, leaves, quality, shared });
     });
     if (reply.error) throw new Error(`kdray: cannot build the mesh: ${reply.error}`);
     const scene = await Scene.fromBytes(reply.bytes, options?.watertight === undefined ? undefined : { watertight: options.watertight });

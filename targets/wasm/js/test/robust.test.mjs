@@ -113,7 +113,7 @@ test('indices: Uint16Array, Array and BufferAttribute build what Uint32Array doe
   await assert.rejects(Scene.build(tri, [0, 1.5, 2]), /indices\[1\] is number 1.5/);
   await assert.rejects(Scene.build(tri, 'abc'), /indices must be/);
   await assert.rejects(Scene.build(tri, [0, 1, 2], 'watertight'), /options must be an object/);
-  await assert.rejects(Scene.build(tri, { watertigth: true }), /unknown option "watertigth" for Scene.build: the options are watertight, layout, leaves/);
+  await assert.rejects(Scene.build(tri, { watertigth: true }), /unknown option "watertigth" for Scene.build: the options are watertight, layout, leaves, quality/);
   await assert.rejects(Scene.build(tri, undefined, { watertight: 'yes' }), /options.watertight must be true or false/);
   const bytes = (await Scene.build(tri)).toBytes();
   await assert.rejects(Scene.fromBytes(bytes, { watertigth: true }), /unknown option "watertigth" for Scene.fromBytes/);

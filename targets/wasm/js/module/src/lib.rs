@@ -23,6 +23,7 @@ mod unit;
 
 use core::cell::RefCell;
 use glam::Vec3;
+use kdray::build::Quality;
 use kdray::crossings as all;
 use kdray::flat::{Layout, Leaves};
 use kdray_core::format::contents;
@@ -227,7 +228,8 @@ pub extern "C" fn kdj_free(ptr: u32) {
 
 /// Builds a scene from `n_pos` floats of positions at `pos_ptr` and `n_idx` indices at `idx_ptr`
 /// (`idx_ptr = 0`: no indices, every 9 floats a triangle); `layout`: 0 nodes, 1 with cache-line
-/// blocks; `leaves`: 0 index lists, 1 triangle groups (built with the SAH priced in groups).
+/// blocks; `leaves`: 0 index lists, 1 triangle groups (built with the SAH priced in groups);
+/// `quality`: 0 `high`, 1 `fast` ([`kdray::build::Quality`]).
 /// Returns the scene's handle (> 0) or a failure.
 #[unsafe(no_mangle)]
 pub extern "C" fn kdj_build(
@@ -237,6 +239,7 @@ pub extern "C" fn kdj_build(
     n_idx: u32,
     layout: u32,
     leaves: u32,
+    quality: u32,
 ) -> i32 {
     with_state(|s| {
         let positions = if n_pos == 0 {
@@ -259,8 +262,13 @@ pub extern "C" fn kdj_build(
             1 => Leaves::Groups,
             _ => return Err((BAD_ARGUMENT, "leaves must be 0 or 1".into())),
         };
+        let quality = match quality {
+            0 => Quality::High,
+            1 => Quality::Fast,
+            _ => return Err((BAD_ARGUMENT, "quality must be 0 or 1".into())),
+        };
         let tris = mesh::triangles(positions, indices).map_err(bad)?;
-        let words = mesh::build_words(tris, layout, leaves).map_err(bad)?;
+        let words = mesh::build_words(tris, layout, leaves, quality).map_err(bad)?;
         s.add(words)
     })
 }

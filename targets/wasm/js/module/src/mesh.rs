@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use kdray::Geometry;
-use kdray::build::{self, BuildParams};
+use kdray::build::{self, BuildParams, Quality};
 use kdray::flat::{self, Layout, Leaves};
 
 /// The most triangles a mesh may have: the flat format's node fields hold 2³⁰ primitives, and a
@@ -107,8 +107,8 @@ fn js_number(x: f32) -> &'static str {
     }
 }
 
-/// Builds the SAH kd-tree over `tris` on this thread, serializes it in `layout` and validates
-/// the words as any loaded scene is.
+/// Builds the SAH kd-tree over `tris` on this thread at `quality`, serializes it in `layout` and
+/// validates the words as any loaded scene is.
 ///
 /// # Errors
 /// What the builder or serializer refuses (a tree too large for the format).
@@ -116,6 +116,7 @@ pub fn build_words(
     tris: Vec<[Vec3; 3]>,
     layout: Layout,
     leaves: Leaves,
+    quality: Quality,
 ) -> Result<Vec<u32>, String> {
     let geom = Geometry {
         triangles: tris,
@@ -123,6 +124,7 @@ pub fn build_words(
     };
     let params = BuildParams {
         parallel: false,
+        quality,
         ..leaves.build_params()
     };
     let tree = build::build(&geom, &params, None)?;
