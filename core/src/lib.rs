@@ -85,6 +85,7 @@
 pub mod camera;
 pub mod color;
 pub mod description;
+pub mod far;
 pub mod format;
 pub mod group;
 pub mod isa;

@@ -132,8 +132,24 @@ impl Triangle {
             & (a + b <= 1.0)
             & (t > ray.tmin)
             & (t < ray.tmax);
-        if hit { Some((t, a, b)) } else { None }
+        if hit {
+            Some((t, a, b))
+        } else if overflowed(det, min_det2, a + b, t, ray.tmin, ray.tmax) {
+            crate::far::intersect_moller_trumbore(self, ray)
+        } else {
+            None
+        }
     }
+}
+
+/// Whether a Möller–Trumbore test must be done again in f64 ([`crate::far`]): the ray is not
+/// parallel to the triangle (`det² > min_det2`) and its interval is not empty, yet `α + β` or
+/// `t` is not finite. Then some product overflowed (`|e1|·|e2|·|o − v0|` past f32's range), and
+/// only then: with `det` past the threshold `1/det` is finite, and `inf` and NaN propagate.
+/// (`α + β` finite but overflowing from two huge finite values only sends a miss there too.)
+#[inline(always)]
+pub fn overflowed(det: f32, min_det2: f32, a_plus_b: f32, t: f32, tmin: f32, tmax: f32) -> bool {
+    (det * det > min_det2) & (tmin < tmax) & !(a_plus_b + t).is_finite()
 }
 
 /// Interpolates per-vertex values with barycentrics `(α, β)` (Rukin's note under equation (13)):

@@ -37,9 +37,26 @@
 //! The `t` test is `tmin < t < tmax` on the divided `t` (the paper's `T` against `det·tmax` avoids
 //! the division, but the division keeps the same hit rule as Möller–Trumbore), and every test is
 //! written so that NaN fails it.
+//!
+//! # Hits at the origin: the `t` error bound (differs from the paper)
+//! An origin within rounding of a triangle's plane is on neither side in f32: the vertices
+//! relative to it are rounded to about `u·|v − o|` (`u = 2⁻²⁴`), which for a triangle of edges
+//! `4·10⁷` is several units, and a ray leaving the plane got hits at small positive `t` (issue
+//! 29: 12–227 of 1,000–2,000 such rays). As pbrt-v3 §3.9.6 and pbrt-v4 §6.8.4 do, a hit is
+//! reported only where `t` is beyond `tmin` by more than a bound [`t_error`] on its rounding
+//! error: `t − δt > tmin`. The bound is needed only where the triangle reaches back to `tmin`:
+//! when every vertex lies beyond it along the ray (`z_min`, the smallest sheared depth, is more
+//! than `tmin` by its own rounding), every point of the triangle does, and so does the hit of
+//! the nearby ray the kernel answers for ([`reaches_back`]); the bound is computed only for the
+//! other hits, so it costs nothing on a ray that misses.
+//!
+//! Triangles whose products overflow f32 (far from the origin: `|e1|·|e2|·|o − v0|` past about
+//! `3.4·10³⁸`) are computed again in f64 ([`crate::far`]).
 
 use crate::ray::Ray;
+use crate::spawn::gamma;
 use crate::triangle::Triangle;
+use core::ops::{Add, Mul, Sub};
 use glam::Vec3;
 
 /// A ray's precomputed shear (paper §3.1–3.2): the permuted axes and `Sx, Sy, Sz`.
@@ -155,8 +172,134 @@ pub fn intersect_sheared(
     // `det != 0` as `|det| > 0`, so NaN fails; `&` without short circuit, as Möller–Trumbore.
     let hit = inside & (det.abs() > 0.0) & (t > ray.tmin) & (t < ray.tmax);
     if hit {
+        let rel = rel.map(|a| [a[kx], a[ky], a[kz]]);
+        if reaches_back(z, ray.tmin) && !(t - t_error(rel, sheared, z, e, inv) > ray.tmin) {
+            return None;
+        }
         Some((t, v * inv, w * inv))
+    } else if overflowed(t, det, ray.tmin, ray.tmax) {
+        crate::far::intersect_watertight(verts, ray, shear)
     } else {
         None
     }
+}
+
+/// Whether the f32 test must be done again in f64 ([`crate::far`]): `t` is not finite although
+/// the ray's interval is not empty and `det` is not 0 (a ray in the triangle's plane, or a
+/// triangle seen edge-on). Then some product overflowed (or `det` is subnormal and `1/det` did),
+/// and only then: a finite `t` never comes from an overflow, since `inf` and NaN propagate.
+#[inline(always)]
+pub fn overflowed(t: f32, det: f32, tmin: f32, tmax: f32) -> bool {
+    (tmin < tmax) & (det != 0.0) & !t.is_finite()
+}
+
+/// Numbers the [`t_error`] bound is computed in: `f32`, `f64` ([`crate::far`]) and the SIMD lanes,
+/// so that one function, one order of operations, serves them all and every lane rounds as the
+/// scalar kernel does.
+pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
+    /// `x` in this type (every lane `x`).
+    fn of(x: f32) -> Self;
+    /// `|self|`.
+    fn abs(self) -> Self;
+    /// The larger; where one is NaN, the other (IEEE `maxNum`, as `f32::max` and the lanes').
+    fn max(self, rhs: Self) -> Self;
+    /// The smaller; where one is NaN, the other.
+    fn min(self, rhs: Self) -> Self;
+}
+
+impl Real for f32 {
+    #[inline(always)]
+    fn of(x: f32) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, rhs: Self) -> Self {
+        f32::max(self, rhs)
+    }
+    #[inline(always)]
+    fn min(self, rhs: Self) -> Self {
+        f32::min(self, rhs)
+    }
+}
+
+impl Real for f64 {
+    #[inline(always)]
+    fn of(x: f32) -> Self {
+        f64::from(x)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f64::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, rhs: Self) -> Self {
+        f64::max(self, rhs)
+    }
+    #[inline(always)]
+    fn min(self, rhs: Self) -> Self {
+        f64::min(self, rhs)
+    }
+}
+
+/// The largest of `f(0), f(1), f(2)`.
+#[inline(always)]
+fn max3<N: Real>(f: impl Fn(usize) -> N) -> N {
+    f(0).max(f(1)).max(f(2))
+}
+
+/// Whether the triangle may reach back to `tmin` along the ray, so that a hit needs the
+/// [`t_error`] test: false when every sheared depth `z`, lowered by its rounding (three roundings,
+/// `γ₃·|z|`; `γ₅` leaves room for this test's own), is beyond `tmin`. A point of the triangle has
+/// the depth of the ray point level with it, so then every hit of a ray from (nearly) this origin
+/// in this direction is beyond `tmin` too. NaN counts as reaching back.
+#[inline(always)]
+pub fn reaches_back<N: Real + PartialOrd>(z: [N; 3], tmin: N) -> bool {
+    let near = z[0].min(z[1]).min(z[2]);
+    !(near - near.abs() * N::of(gamma(5)) > tmin)
+}
+
+/// A bound `δt` on `|t − t_exact|` at `t ≈ 0`, from the kernel's own values: `rel`, the vertices
+/// relative to the origin, permuted (`[v[kx] − o[kx], v[ky] − o[ky], v[kz] − o[kz]]`);
+/// `sheared`, their `x, y` after the shear; `z`, their sheared depths; `e`, the edge functions;
+/// `inv = 1/det`. pbrt-v3 §3.9.6's bound (Higham's `γₙ = n·u/(1 − n·u)`), adapted to this kernel,
+/// which shears `x, y` before it scales `z` (pbrt scales first), so its `x, y` errors grow with
+/// the depth itself, not the scaled depth: an unnormalized direction changes nothing.
+///
+/// 1. A sheared `x = A[kx] − Sx·A[kz]` takes 4 roundings on any path (`A`, `Sx`, the product,
+///    the difference) and `|Sx| ≤ 1`: it is within `δx = γ₅·(max|A[kx]| + max|A[kz]|)` of the
+///    exact one (`γ₅` for `A`'s own rounding, from the rounded `A`); `δy` likewise.
+/// 2. An edge function `Cx·By − Cy·Bx` (two products, a difference: `γ₂`, or less in the f64
+///    rerun), with `X`, `Y` the largest `|x|`, `|y|`: within
+///    `δe = 2·(γ₂·X·Y + X·δy + Y·δx + δx·δy)` of the exact one.
+/// 3. A depth `z = Sz·A[kz]` (3 roundings): within `δz = γ₄·Z`, `Z` the largest `|z|`.
+/// 4. `T = Σ e·z` (3 products, 2 sums: `γ₃`), with `E` the largest `|e|`:
+///    `δT = 3·(γ₃·E·Z + E·δz + (Z + δz)·δe)`, and `δt = δT·|1/det|`.
+///
+/// `t − δt > 0` then means the exact `T` has the computed `T`'s sign, which with `det`'s makes
+/// the exact `t` positive (as pbrt, the sign of `det`, a sum of three same-signed edge functions,
+/// is taken as exact). Each `γ` below is one or two roundings larger than the count above: the
+/// spare (20–50 % of each term) covers the bound's own f32 evaluation and the rounding of `t`
+/// and `1/det`. `inf` where the bound overflows: then no hit near the origin is sure.
+#[inline(always)]
+pub fn t_error<N: Real>(rel: [[N; 3]; 3], sheared: [[N; 2]; 3], z: [N; 3], e: [N; 3], inv: N) -> N {
+    let g = |n: u32| N::of(gamma(n));
+    let (rx, ry, rz) = (
+        max3(|i| rel[i][0].abs()),
+        max3(|i| rel[i][1].abs()),
+        max3(|i| rel[i][2].abs()),
+    );
+    let dx = g(6) * (rx + rz);
+    let dy = g(6) * (ry + rz);
+    let x = max3(|i| sheared[i][0].abs());
+    let y = max3(|i| sheared[i][1].abs());
+    let de = N::of(2.0) * (g(3) * x * y + x * dy + y * dx + dx * dy);
+    let zmax = max3(|i| z[i].abs());
+    let emax = max3(|i| e[i].abs());
+    let dz = g(5) * zmax;
+    let dt = N::of(3.0) * (g(4) * emax * zmax + emax * dz + (zmax + dz) * de);
+    dt * inv.abs()
 }

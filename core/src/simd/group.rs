@@ -13,8 +13,9 @@ use super::f32x4;
 use super::kernels::{PrimHits, TriangleLanes, moller_trumbore_lanes};
 use super::lanes::{Lanes, Vec3x, set_lanes};
 use super::watertight::watertight_lanes;
-use crate::group::{Group, floats, ids, slot};
+use crate::group::{Group, floats, ids, lane_vertices, slot};
 use crate::ray::Ray;
+use crate::triangle::Triangle;
 use crate::watertight::Shear;
 
 /// Vertex `k` (0, 1, 2) of the four lanes.
@@ -54,6 +55,10 @@ pub fn intersect_group(g: &Group, ray: &Ray) -> PrimHits<f32x4> {
         &Vec3x::splat(ray.dir),
         splat(ray.tmin),
         splat(ray.tmax),
+        |j| {
+            let [v0, v1, v2] = lane_vertices(g, j);
+            crate::far::intersect_moller_trumbore(&Triangle::from_vertices(v0, v1, v2), ray)
+        },
     )
 }
 
@@ -95,6 +100,7 @@ pub fn intersect_group_watertight(g: &Group, ray: &Ray, shear: &Shear) -> PrimHi
         f32x4::splat(ray.tmin),
         f32x4::splat(ray.tmax),
         valid,
+        |j| crate::far::intersect_watertight(&lane_vertices(g, j), ray, shear),
     )
 }
 

@@ -11,7 +11,7 @@
 //! active lanes: [`record_closest`] does that. (An absent lane can never hit anyway; see
 //! [`RayPacket::from_rays`].)
 
-use super::lanes::{Lanes, Vec3x};
+use super::lanes::{Lanes, Vec3x, set_lanes};
 use super::packet::{HitPacket, RayPacket};
 use crate::sphere::Sphere;
 use crate::triangle::Triangle;
@@ -36,6 +36,33 @@ impl<L: Lanes> PrimHits<L> {
             t: zero,
             u: zero,
             v: zero,
+        }
+    }
+
+    /// These hits with lane `i` of each bit of `lanes` replaced by `far(i)`: the scalar f64
+    /// kernel of [`crate::far`] for that lane's ray and triangle, where the lane's f32 products
+    /// overflowed. Rare (rays that far from the triangles), so out of line.
+    #[cold]
+    #[inline(never)]
+    pub(crate) fn redo_far(
+        self,
+        lanes: u32,
+        far: impl Fn(usize) -> Option<(f32, f32, f32)>,
+    ) -> Self {
+        let mut bits = self.mask.bitmask();
+        let (mut t, mut u, mut v) = (self.t.to_array(), self.u.to_array(), self.v.to_array());
+        for i in set_lanes(lanes) {
+            bits &= !(1 << i);
+            if let Some((ti, ui, vi)) = far(i) {
+                bits |= 1 << i;
+                (t.as_mut()[i], u.as_mut()[i], v.as_mut()[i]) = (ti, ui, vi);
+            }
+        }
+        Self {
+            mask: L::mask_from_bits(bits),
+            t: L::from_array(t),
+            u: L::from_array(u),
+            v: L::from_array(v),
         }
     }
 }
@@ -75,7 +102,14 @@ pub fn intersect_triangle_prepared<L: Lanes>(
         e2: Vec3x::splat(tri.e2),
         min_det2: L::splat(min_det2),
     };
-    moller_trumbore_lanes(&tri_lanes, &rays.origin, &rays.dir, rays.tmin, rays.tmax)
+    moller_trumbore_lanes(
+        &tri_lanes,
+        &rays.origin,
+        &rays.dir,
+        rays.tmin,
+        rays.tmax,
+        |i| crate::far::intersect_moller_trumbore(tri, &rays.ray(i)),
+    )
 }
 
 /// Triangles in Möller–Trumbore's layout, one per lane (or one in every lane), with their
@@ -91,7 +125,9 @@ pub(crate) struct TriangleLanes<L> {
 /// Möller–Trumbore lane by lane: lane `i`'s ray (`origin`, `dir`, `(tmin, tmax)`) against lane
 /// `i`'s triangle, the operations of [`Triangle::intersect_prepared`] in its order. Serves both a
 /// packet of rays against one triangle (the triangle splat) and one ray against a group of
-/// triangles (the ray splat, [`super::group`]).
+/// triangles (the ray splat, [`super::group`]). `far(i)` is the scalar f64 kernel for lane `i`
+/// ([`crate::far::intersect_moller_trumbore`] of its ray and triangle), called for the lanes
+/// where the scalar kernel calls it ([`crate::triangle::overflowed`]).
 #[inline(always)]
 pub(crate) fn moller_trumbore_lanes<L: Lanes>(
     tri: &TriangleLanes<L>,
@@ -99,6 +135,7 @@ pub(crate) fn moller_trumbore_lanes<L: Lanes>(
     dir: &Vec3x<L>,
     tmin: L,
     tmax: L,
+    far: impl Fn(usize) -> Option<(f32, f32, f32)>,
 ) -> PrimHits<L> {
     let TriangleLanes {
         v0,
@@ -108,24 +145,31 @@ pub(crate) fn moller_trumbore_lanes<L: Lanes>(
     } = *tri;
     let p = dir.cross(e2);
     let det = e1.dot(p);
-    let mut mask = (det * det).gt(min_det2);
+    let not_parallel = (det * det).gt(min_det2);
     let inv = det.recip();
     let s = *origin - v0;
     let a = s.dot(p) * inv;
     let one = L::splat(1.0);
     let zero = L::splat(0.0);
-    mask = mask & a.ge(zero) & a.le(one);
+    let mut mask = not_parallel & a.ge(zero) & a.le(one);
     let q = s.cross(e1);
     let b = dir.dot(q) * inv;
-    mask = mask & b.ge(zero) & (a + b).le(one);
+    let a_plus_b = a + b;
+    mask = mask & b.ge(zero) & a_plus_b.le(one);
     let t = e2.dot(q) * inv;
     mask = mask & t.gt(tmin) & t.lt(tmax);
-    PrimHits {
+    let hits = PrimHits {
         mask,
         t,
         u: a,
         v: b,
+    };
+    // `triangle::overflowed`, lane by lane.
+    let redo = (not_parallel & tmin.lt(tmax) & !(a_plus_b + t).is_finite()).bitmask();
+    if redo != 0 {
+        return hits.redo_far(redo, far);
     }
+    hits
 }
 
 /// One sphere against every lane: the lanes where [`Sphere::intersect`] would return `Some(t)` for
