@@ -10,13 +10,14 @@
 //! Every failure is a `ValueError` naming the argument and the problem; the Python layer raises
 //! the `TypeError`s.
 
+mod closest;
 mod mesh;
 mod owned;
 mod rays;
 
 use kdray::flat::{self, Layout, Leaves};
 use kdray_core::traverse::Mode;
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray1};
 use owned::{Options, Owned};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -87,6 +88,12 @@ fn slice<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
 ) -> PyResult<&'a [T]> {
     a.as_slice()
         .map_err(|_| value_error(format!("{name} is not C-contiguous")))
+}
+
+/// The elements of a new (so C-contiguous) array, to write.
+fn slice_mut<'a, T: numpy::Element>(a: &'a mut PyReadwriteArray1<'_, T>) -> PyResult<&'a mut [T]> {
+    a.as_slice_mut()
+        .map_err(|_| value_error("a new array is not C-contiguous: please report this"))
 }
 
 /// A validated kd-tree over a triangle mesh (the package's `kdray.Scene` wraps it).
@@ -278,7 +285,7 @@ impl Tree {
             n: 1,
         };
         batch.check_values().map_err(value_error)?;
-        Ok(rays::closest_one(
+        Ok(closest::closest_one(
             self.owned.scene(),
             &batch,
             mode(watertight),
@@ -306,17 +313,53 @@ impl Tree {
     )> {
         let batch = rays.batch()?;
         let scene = self.owned.scene();
-        let out = traced(py, threads, &batch, || {
-            rays::intersect(scene, &batch, mode(watertight), points, normals)
-        })?;
-        Ok((
-            PyArray1::from_vec(py, out.t),
-            PyArray1::from_vec(py, out.prim),
-            PyArray1::from_vec(py, out.u),
-            PyArray1::from_vec(py, out.v),
-            out.points.map(|p| PyArray1::from_vec(py, p)),
-            out.normals.map(|p| PyArray1::from_vec(py, p)),
-        ))
+        // numpy's own arrays, written in place by the threads: numpy's allocator advises huge
+        // pages for arrays of 4 MiB and more (fewer page faults than a Vec's fresh pages).
+        let n = batch.n;
+        let zeros = |len: usize| PyArray1::<f32>::zeros(py, len, false);
+        let (t, prim, u, v) = (
+            zeros(n),
+            PyArray1::<i64>::zeros(py, n, false),
+            zeros(n),
+            zeros(n),
+        );
+        let (p, nrm) = (points.then(|| zeros(3 * n)), normals.then(|| zeros(3 * n)));
+        let (mut tw, mut primw, mut uw, mut vw) = (
+            t.readwrite(),
+            prim.readwrite(),
+            u.readwrite(),
+            v.readwrite(),
+        );
+        let mut pw = p.as_ref().map(|a| a.readwrite());
+        let mut nw = nrm.as_ref().map(|a| a.readwrite());
+        let out = closest::Answers {
+            t: slice_mut(&mut tw)?,
+            prim: slice_mut(&mut primw)?,
+            u: slice_mut(&mut uw)?,
+            v: slice_mut(&mut vw)?,
+            points: pw.as_mut().map(slice_mut).transpose()?,
+            normals: nw.as_mut().map(slice_mut).transpose()?,
+        };
+        // The rays are checked as they are traced; a refused one is reported as
+        // `check_values` words it.
+        let run = || {
+            if closest::intersect(scene, &batch, mode(watertight), out) {
+                Ok(())
+            } else {
+                Err(match batch.check_values() {
+                    Err(e) => e,
+                    Ok(()) => "a ray could not be traced: please report this batch".to_string(),
+                })
+            }
+        };
+        if batch.n <= rays::CHUNK {
+            py.detach(run)
+        } else {
+            py.detach(|| on_pool(threads, run))?
+        }
+        .map_err(value_error)?;
+        drop((tw, primw, uw, vw, pw, nw));
+        Ok((t, prim, u, v, p, nrm))
     }
 
     /// Whether anything lies along each ray.
@@ -406,5 +449,6 @@ impl Tree {
 fn _kdray(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Tree>()?;
     m.add("CONTAINS_DIRECTION", rays::CONTAINS_DIRECTION)?;
+    m.add("ISA", kdray_core::isa::name())?;
     Ok(())
 }
