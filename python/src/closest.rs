@@ -25,6 +25,7 @@ use kdray_core::traverse::stream::order::octant;
 use kdray_core::traverse::stream::{self, Config};
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
+use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Rays converted, traced and answered at a time on the packet path: few enough that the run's
@@ -37,24 +38,26 @@ const RUN: usize = 256;
 /// `t` (+inf for a miss), the triangle in input order (−1 for a miss), the barycentrics `u`, `v`
 /// of `v1` and `v2` (0 for a miss), and on request the hit points and the triangles' unit
 /// geometric normals (`(v1 − v0) × (v2 − v0)` normalized; NaN for a miss).
+/// They may start uninitialized (new numpy arrays): [`intersect`] writes every element, unless
+/// it refuses the batch.
 pub struct Answers<'a> {
-    pub t: &'a mut [f32],
-    pub prim: &'a mut [i64],
-    pub u: &'a mut [f32],
-    pub v: &'a mut [f32],
-    pub points: Option<&'a mut [f32]>,
-    pub normals: Option<&'a mut [f32]>,
+    pub t: &'a mut [MaybeUninit<f32>],
+    pub prim: &'a mut [MaybeUninit<i64>],
+    pub u: &'a mut [MaybeUninit<f32>],
+    pub v: &'a mut [MaybeUninit<f32>],
+    pub points: Option<&'a mut [MaybeUninit<f32>]>,
+    pub normals: Option<&'a mut [MaybeUninit<f32>]>,
 }
 
 /// One piece of a batch's answers: rays `start..start + t.len()`.
 struct Piece<'a> {
     start: usize,
-    t: &'a mut [f32],
-    prim: &'a mut [i64],
-    u: &'a mut [f32],
-    v: &'a mut [f32],
-    points: Option<&'a mut [f32]>,
-    normals: Option<&'a mut [f32]>,
+    t: &'a mut [MaybeUninit<f32>],
+    prim: &'a mut [MaybeUninit<i64>],
+    u: &'a mut [MaybeUninit<f32>],
+    v: &'a mut [MaybeUninit<f32>],
+    points: Option<&'a mut [MaybeUninit<f32>]>,
+    normals: Option<&'a mut [MaybeUninit<f32>]>,
 }
 
 /// A thread's buffers: a run's rays as traced, their directions' lengths, their hits, the
@@ -193,30 +196,40 @@ fn answer(scene: &Scene, batch: &Batch, p: &mut Piece, from: usize, hits: &[Hit]
         .zip(&mut p.prim[at..at + len])
         .zip(&mut p.u[at..at + len])
         .zip(&mut p.v[at..at + len]);
-    for ((((t, prim), u), v), (h, l)) in rows.zip(hits.iter().zip(lengths)) {
-        if h.is_hit() {
-            *t = if *l == 1.0 {
-                h.t
-            } else {
-                (f64::from(h.t) / l) as f32
-            };
-            *prim = i64::from(scene.input_id(h.prim));
+    // `t` in units of the direction given.
+    let t_of = |h: &Hit, l: f64| {
+        if !h.is_hit() {
+            f32::INFINITY
+        } else if l == 1.0 {
+            h.t
         } else {
-            *t = f32::INFINITY;
-            *prim = -1;
+            (f64::from(h.t) / l) as f32
         }
-        *u = h.u;
-        *v = h.v;
+    };
+    for ((((t, prim), u), v), (h, l)) in rows.zip(hits.iter().zip(lengths)) {
+        t.write(t_of(h, *l));
+        prim.write(if h.is_hit() {
+            i64::from(scene.input_id(h.prim))
+        } else {
+            -1
+        });
+        u.write(h.u);
+        v.write(h.v);
     }
+    let write3 = |out: &mut [MaybeUninit<f32>], xyz: [f32; 3]| {
+        for (o, x) in out.iter_mut().zip(xyz) {
+            o.write(x);
+        }
+    };
     if let Some(points) = p.points.as_deref_mut() {
         let rows = points[3 * at..3 * (at + len)].chunks_exact_mut(3);
-        for (j, (h, out)) in hits.iter().zip(rows).enumerate() {
+        for (j, ((h, l), out)) in hits.iter().zip(lengths).zip(rows).enumerate() {
             let point = if h.is_hit() {
-                batch.point(from + j, p.t[at + j])
+                batch.point(from + j, t_of(h, *l))
             } else {
                 [f32::NAN; 3]
             };
-            out.copy_from_slice(&point);
+            write3(out, point);
         }
     }
     if let Some(normals) = p.normals.as_deref_mut() {
@@ -230,7 +243,7 @@ fn answer(scene: &Scene, batch: &Batch, p: &mut Piece, from: usize, hits: &[Hit]
             } else {
                 [f32::NAN; 3]
             };
-            out.copy_from_slice(&normal);
+            write3(out, normal);
         }
     }
 }
