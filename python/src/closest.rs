@@ -6,10 +6,10 @@
 //! (`kdray::rays::trace_packets_in`, what `kdray trace --packet 8` does); other rays through the
 //! core's ray stream, which sorts them into coherent runs and traces the rest as interleaved
 //! single rays (`kdray_core::traverse::stream`, what `kdray trace --stream --packet 8` does). The
-//! stream would trace a camera's tiles as the same packets, but it tests each run's coherence
-//! first, which cost 0.6–0.7× the walk's own time on the bunny's primary rays; on
-//! incoherent rays (diffuse bounces), packets of consecutive rays ran 0.7–0.8× the stream
-//! (README, "Python").
+//! stream traces a camera's tiles as the same packets, but it tests each run's coherence first
+//! (a quarter of its time in a profile of the bunny's primary rays): on those rays it ran 0.63×
+//! as fast as packets of consecutive rays on the bunny, 0.85× on the dragon; on diffuse bounces,
+//! packets of consecutive rays ran 0.72–0.84× the stream (README, "Python").
 //!
 //! How: each thread converts a run of rays into its own buffer (the rays as traced: unit
 //! directions, intervals scaled, the module doc of `rays`), checking them on the way, traces them
@@ -28,10 +28,8 @@ use rayon::prelude::*;
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Rays converted, traced and answered at a time on the packet path: few enough that the run's
-/// rays and hits stay in the L1 cache (8 KiB of rays), and that reading the next rays from the
-/// caller's arrays overlaps with tracing (the prefetcher keeps ahead of a walk; a separate pass
-/// converting thousands of rays waited on memory).
+/// Rays converted, traced and answered at a time on the packet path: few enough that a run's
+/// rays and hits stay in the L1 cache from their conversion to their answers (8 KiB of rays).
 const RUN: usize = 256;
 
 /// Where closest hits go (the package's arrays, `n` items each, `3n` for points and normals):
