@@ -3,18 +3,18 @@ taking turns (A/B), for the issue's target: a batch within 10 % of the native th
 
     python bench/native_ab.py --kdray target/release/kdray data/bunny.tri data/dragon.tri
 
-For each mesh, `kdray build` writes the tree once (the command line's defaults) and the package
-loads that `.kdt` (`Scene.load`), so both trace the same tree; `kdray rays` writes the benchmark
-protocol's primary and diffuse rays (docs/BENCHMARKS.md). Each round runs `kdray trace --repeat K`
-(its `trace_ms`: the best of K, without file I/O) for each way of tracing given to `--native`
-(default: consecutive packets, and the stream), and K calls of `scene.intersect` on the same
-arrays (the best of K, the whole call: the Python layer, checks, tracing, the answers' arrays),
-the package before the native runs in one round and after them in the next; `--python` adds
-another build of the package (another virtual environment's), timed in its own process in the
-same rounds. Printed: the medians over the rounds and their
-ratio (package ÷ native throughput; 1.00 = equal), with the median of the per-round ratios. The
-answers are compared ray by ray with the native hits file (the triangle, and `t` to 1e-6
-relative: the package scales `t` back to the direction's length in f64).
+For each mesh, `kdray build` writes the tree once (the command line's defaults; a `.kdt` given
+instead is used as it is) and the package loads that `.kdt` (`Scene.load`), so both trace the
+same tree; `kdray rays` writes the benchmark protocol's primary and diffuse rays
+(docs/BENCHMARKS.md). Each round runs `kdray trace --repeat K` (its `trace_ms`: the best of K,
+without file I/O) for each way of tracing given to `--native` (default: consecutive packets, and
+the stream), and K calls of `scene.intersect` on the same arrays (the best of K, the whole call:
+the Python layer, checks, tracing, the answers' arrays), the package before the native runs in
+one round and after them in the next; `--python` adds another build of the package (another
+virtual environment's), timed in its own process in the same rounds. Printed: the medians over
+the rounds, the package's ratio to the fastest native way (1.00 = equal) and the median of the
+per-round ratios. The answers are compared ray by ray with the last native hits file (the
+triangle, and `t` to 1e-6 relative).
 """
 
 import argparse
