@@ -29,10 +29,15 @@ import numpy as np
 
 from . import _kdray
 
-__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION"]
+__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA"]
 
 #: The direction in which :meth:`Scene.contains` casts its rays.
 CONTAINS_DIRECTION = tuple(float(x) for x in _kdray.CONTAINS_DIRECTION)
+
+#: The instruction set the extension's SIMD was compiled for, as ``kdray --version`` names it
+#: (``'avx2+fma'``, ``'avx'``, ``'sse2'``, ...): a build from source compiles for the CPU that
+#: builds it (the repository's ``.cargo/config.toml``), a portable wheel for SSE2.
+ISA: str = _kdray.ISA
 
 _BUILD_OPTIONS = {"layout": ("nodes", "blocked"), "leaves": ("groups", "list")}
 _DEFAULTS = {"layout": "nodes", "leaves": "groups"}

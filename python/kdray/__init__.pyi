@@ -6,9 +6,10 @@ from typing import Any, NamedTuple, Optional, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION"]
+__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA"]
 
 CONTAINS_DIRECTION: Tuple[float, float, float]
+ISA: str
 
 _Path = Union[str, "os.PathLike[str]"]
 _Floats = npt.ArrayLike

@@ -8,6 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 CONTAINS_DIRECTION: Tuple[float, float, float]
+ISA: str
 
 F32 = npt.NDArray[np.float32]
 I64 = npt.NDArray[np.int64]

@@ -6,18 +6,21 @@
 //! is traced normalized (the core's kernels expect unit directions: their parallel test is set
 //! for them) over the interval scaled to match, and `t` is scaled back, so that every answer is
 //! in units of the direction given: the hit point is `origin + t·direction`, as in Open3D and
-//! Embree.
+//! Embree. A direction of unit length already (its squared length within 2⁻²⁰ of 1, as
+//! normalized f32 vectors are) is traced as given, as `kdray trace` traces it: no square root,
+//! no division, and the same answers as the native tracer's on the same rays.
 //!
-//! Closest and any hits go through the core's ray stream (`kdray_core::traverse::stream`: coherent
-//! runs as packets, the rest sorted and traced as interleaved single rays), one stream per piece
-//! of the batch; every hit along a ray through the host's exact crossings (`kdray::crossings`).
+//! Closest hits take the walk `kdray trace` is fastest with for the rays at hand (`closest`); any
+//! hits go through the core's ray stream (`kdray_core::traverse::stream`: coherent runs as
+//! packets, the rest sorted and traced as interleaved single rays), one stream per piece of the
+//! batch; every hit along a ray through the host's exact crossings (`kdray::crossings`).
 
 use crate::mesh::{number, row};
 use glam::Vec3;
 use kdray::crossings::{AllHit, all_hits};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config};
-use kdray_core::{Hit, Ray, Scene};
+use kdray_core::{Ray, Scene};
 use rayon::prelude::*;
 
 /// Rays per piece of work at least: enough to amortize a stream's sort and scheduling. A batch
@@ -39,17 +42,24 @@ fn first<T: Sync>(items: &[T], bad: impl Fn(&T) -> bool + Sync + Send) -> Option
     }
 }
 
+/// A placeholder in a buffer, overwritten before it is traced.
+const IDLE: Ray = Ray {
+    origin: Vec3::ZERO,
+    dir: Vec3::X,
+    tmin: 0.0,
+    tmax: 0.0,
+};
+
 /// Rays a stream traces at most: long enough for the sort to find coherent runs, short enough
 /// that a thread's buffers ([`Buffers`]) stay a few MB and are reused (fresh pages cost this VM
 /// about as much as tracing into them).
-const MAX_PIECE: usize = 1 << 17;
+pub const MAX_PIECE: usize = 1 << 17;
 
-/// A thread's buffers for one stream: the rays, their answers, the sort's scratch. Kept between
-/// pieces and calls.
+/// A thread's buffers for one stream: the rays, the sort's scratch. Kept between pieces and
+/// calls.
 #[derive(Default)]
 struct Buffers {
     rays: Vec<Ray>,
-    hits: Vec<Hit>,
     scratch: Vec<u64>,
 }
 
@@ -184,19 +194,95 @@ impl Batch<'_> {
     /// Ray `i` as traced (unit direction, interval in distance) and the direction's length.
     pub fn ray(&self, i: usize) -> (Ray, f64) {
         let o = Self::row3(self.origins, i);
-        let d = Self::row3(self.directions, i).as_dvec3();
-        let len = d.length();
-        let ray = Ray {
-            origin: o,
-            dir: (d / len).as_vec3(),
-            tmin: (f64::from(Self::row(self.tmin, i)) * len) as f32,
-            tmax: (f64::from(Self::row(self.tmax, i)) * len) as f32,
+        let d = Self::row3(self.directions, i);
+        traced(o, d, Self::row(self.tmin, i), Self::row(self.tmax, i))
+    }
+
+    /// Appends rays `range` as traced ([`Batch::ray`]) to `rays` and the lengths by which
+    /// their answers' `t` are divided to `lengths`, checking each on the way; false if one of
+    /// them is a ray that [`Batch::check_values`] refuses (nothing is appended then).
+    pub fn convert(
+        &self,
+        range: core::ops::Range<usize>,
+        rays: &mut Vec<Ray>,
+        lengths: &mut Vec<f64>,
+    ) -> bool {
+        let from = rays.len();
+        rays.resize(from + range.len(), IDLE);
+        lengths.resize(from + range.len(), 1.0);
+        let (out, lens) = (&mut rays[from..], &mut lengths[from..]);
+        let ok = if [self.origins.len(), self.directions.len()] == [3 * self.n; 2]
+            && [self.tmin.len(), self.tmax.len()] == [self.n; 2]
+        {
+            self.convert_rows(range, out, lens)
+        } else {
+            self.convert_broadcast(range, out, lens)
         };
-        (ray, len)
+        if !ok {
+            rays.truncate(from);
+            lengths.truncate(from);
+        }
+        ok
+    }
+
+    /// [`Batch::convert`] when every array has a row per ray: the checks as loops over each
+    /// array's rows that the compiler vectorizes, then the rays as copies, but for directions
+    /// not of unit length.
+    fn convert_rows(
+        &self,
+        range: core::ops::Range<usize>,
+        out: &mut [Ray],
+        lens: &mut [f64],
+    ) -> bool {
+        let (o, _) = self.origins[3 * range.start..3 * range.end].as_chunks::<3>();
+        let (d, _) = self.directions[3 * range.start..3 * range.end].as_chunks::<3>();
+        let (lo, hi) = (&self.tmin[range.clone()], &self.tmax[range]);
+        let finite = |a: &[f32]| a.iter().fold(true, |ok, x| ok & x.is_finite());
+        let intervals = lo.iter().zip(hi).fold(true, |ok, (lo, hi)| {
+            ok & lo.is_finite() & (*hi != f32::NEG_INFINITY) & (lo <= hi)
+        });
+        if !(finite(o.as_flattened()) & finite(d.as_flattened()) & intervals) {
+            return false;
+        }
+        let rows = o.iter().zip(d).zip(lo.iter().zip(hi));
+        for ((ray, len), ((o, d), (lo, hi))) in out.iter_mut().zip(lens).zip(rows) {
+            let d = Vec3::from_array(*d);
+            if d == Vec3::ZERO {
+                return false;
+            }
+            (*ray, *len) = traced(Vec3::from_array(*o), d, *lo, *hi);
+        }
+        true
+    }
+
+    /// [`Batch::convert`] when some array has one row for every ray.
+    fn convert_broadcast(
+        &self,
+        range: core::ops::Range<usize>,
+        out: &mut [Ray],
+        lens: &mut [f64],
+    ) -> bool {
+        for ((ray, len), i) in out.iter_mut().zip(lens).zip(range) {
+            let o = Self::row3(self.origins, i);
+            let d = Self::row3(self.directions, i);
+            let (tmin, tmax) = (Self::row(self.tmin, i), Self::row(self.tmax, i));
+            let valid = o.is_finite()
+                && d.is_finite()
+                && d != Vec3::ZERO
+                && tmin.is_finite()
+                && !tmax.is_nan()
+                && tmax != f32::NEG_INFINITY
+                && tmin <= tmax;
+            if !valid {
+                return false;
+            }
+            (*ray, *len) = traced(o, d, tmin, tmax);
+        }
+        true
     }
 
     /// The point at `t` along ray `i` as given: `origin + t·direction`.
-    fn point(&self, i: usize, t: f32) -> [f32; 3] {
+    pub fn point(&self, i: usize, t: f32) -> [f32; 3] {
         let o = Self::row3(self.origins, i).as_dvec3();
         let d = Self::row3(self.directions, i).as_dvec3();
         (o + f64::from(t) * d).as_vec3().to_array()
@@ -207,156 +293,44 @@ impl Batch<'_> {
             .div_ceil(4 * rayon::current_num_threads().max(1))
             .clamp(CHUNK, MAX_PIECE)
     }
+}
 
-    /// The length of ray `i`'s direction, by which `t` is scaled back.
-    fn length(&self, i: usize) -> f64 {
-        Self::row3(self.directions, i).as_dvec3().length()
+/// How far from 1 a direction's squared length (in f32) may be for the direction to be traced as
+/// given: 2⁻²⁰, a few of f32's units in the last place of 1, as a normalized f32 vector has.
+const UNIT: f32 = 1.0 / (1u32 << 20) as f32;
+
+/// The ray `origin + t·dir`, `tmin < t < tmax`, as traced, and the length of `dir` by which its
+/// `t` is divided: a direction of unit length (to within [`UNIT`]) as given, with length 1 (the
+/// ray `kdray trace` traces); any other normalized (in f64, rounded once) and its interval scaled
+/// to match.
+#[inline(always)]
+fn traced(origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> (Ray, f64) {
+    if (dir.length_squared() - 1.0).abs() <= UNIT {
+        return (
+            Ray {
+                origin,
+                dir,
+                tmin,
+                tmax,
+            },
+            1.0,
+        );
     }
+    let d = dir.as_dvec3();
+    let len = d.length();
+    let ray = Ray {
+        origin,
+        dir: (d / len).as_vec3(),
+        tmin: (f64::from(tmin) * len) as f32,
+        tmax: (f64::from(tmax) * len) as f32,
+    };
+    (ray, len)
 }
 
 fn stream_config(mode: Mode) -> Config {
     Config {
         mode,
         ..Config::default()
-    }
-}
-
-/// Closest hits: `t` (+inf for a miss), the triangle in input order (−1 for a miss), the
-/// barycentrics `u`, `v` of `v1` and `v2` (0 for a miss), and on request the hit points and the
-/// triangles' unit geometric normals (`(v1 − v0) × (v2 − v0)` normalized; NaN for a miss).
-#[derive(Debug, Default)]
-pub struct Closest {
-    pub t: Vec<f32>,
-    pub prim: Vec<i64>,
-    pub u: Vec<f32>,
-    pub v: Vec<f32>,
-    pub points: Option<Vec<f32>>,
-    pub normals: Option<Vec<f32>>,
-}
-
-/// One piece of a batch's answers: rays `start..start + t.len()`.
-struct Piece<'a> {
-    start: usize,
-    t: &'a mut [f32],
-    prim: &'a mut [i64],
-    u: &'a mut [f32],
-    v: &'a mut [f32],
-    points: Option<&'a mut [f32]>,
-    normals: Option<&'a mut [f32]>,
-}
-
-/// `len` pieces of `v`'s chunks of `c` (`None` each when `v` is).
-fn chunks_or_none<T>(v: Option<&mut [T]>, c: usize, len: usize) -> Vec<Option<&mut [T]>> {
-    match v {
-        Some(v) => v.chunks_mut(c).map(Some).collect(),
-        None => (0..len).map(|_| None).collect(),
-    }
-}
-
-/// The closest hits of `batch` (checked) on `scene`, in `mode`, on the current rayon pool.
-pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, points: bool, normals: bool) -> Closest {
-    let n = batch.n;
-    let mut out = Closest {
-        t: vec![0.0; n],
-        prim: vec![0; n],
-        u: vec![0.0; n],
-        v: vec![0.0; n],
-        points: points.then(|| vec![0.0; 3 * n]),
-        normals: normals.then(|| vec![0.0; 3 * n]),
-    };
-    let c = batch.pieces();
-    let count = n.div_ceil(c);
-    let pieces: Vec<Piece> = out
-        .t
-        .chunks_mut(c)
-        .zip(out.prim.chunks_mut(c))
-        .zip(out.u.chunks_mut(c))
-        .zip(out.v.chunks_mut(c))
-        .zip(chunks_or_none(out.points.as_deref_mut(), 3 * c, count))
-        .zip(chunks_or_none(out.normals.as_deref_mut(), 3 * c, count))
-        .enumerate()
-        .map(|(k, (((((t, prim), u), v), points), normals))| Piece {
-            start: k * c,
-            t,
-            prim,
-            u,
-            v,
-            points,
-            normals,
-        })
-        .collect();
-    let config = stream_config(mode);
-    let work = |p: Piece| {
-        let range = p.start..p.start + p.t.len();
-        let hits = with_rays(batch, range, |b| {
-            b.hits.clear();
-            b.hits.resize(b.rays.len(), Hit::MISS);
-            // The lengths match by construction, so this cannot fail.
-            let _ = stream::intersect(scene, &config, &b.rays, &mut b.hits, &mut b.scratch);
-            core::mem::take(&mut b.hits)
-        });
-        for (j, h) in hits.iter().enumerate() {
-            let hit = h.is_hit();
-            p.t[j] = if hit {
-                (f64::from(h.t) / batch.length(p.start + j)) as f32
-            } else {
-                f32::INFINITY
-            };
-            p.prim[j] = if hit {
-                i64::from(scene.input_id(h.prim))
-            } else {
-                -1
-            };
-            p.u[j] = h.u;
-            p.v[j] = h.v;
-        }
-        if let Some(points) = p.points {
-            for (j, (h, out)) in hits.iter().zip(points.chunks_exact_mut(3)).enumerate() {
-                let at = if h.is_hit() {
-                    batch.point(p.start + j, p.t[j])
-                } else {
-                    [f32::NAN; 3]
-                };
-                out.copy_from_slice(&at);
-            }
-        }
-        if let Some(normals) = p.normals {
-            for (h, out) in hits.iter().zip(normals.chunks_exact_mut(3)) {
-                let normal = if h.is_hit() {
-                    scene
-                        .geometric_normal(h.prim, Vec3::ZERO)
-                        .normalize()
-                        .to_array()
-                } else {
-                    [f32::NAN; 3]
-                };
-                out.copy_from_slice(&normal);
-            }
-        }
-        BUFFERS.with_borrow_mut(|b| b.hits = hits);
-    };
-    if pieces.len() == 1 {
-        pieces.into_iter().for_each(work);
-    } else {
-        pieces.into_par_iter().for_each(work);
-    }
-    out
-}
-
-/// The closest hit of the one ray of `batch` (checked) by the single-ray walk: `(t, prim, u, v)`
-/// as [`intersect`] gives them.
-pub fn closest_one(scene: &Scene, batch: &Batch, mode: Mode) -> (f32, i64, f32, f32) {
-    let (ray, len) = batch.ray(0);
-    let h = scene.intersect_in(mode, &ray);
-    if h.is_hit() {
-        (
-            (f64::from(h.t) / len) as f32,
-            i64::from(scene.input_id(h.prim)),
-            h.u,
-            h.v,
-        )
-    } else {
-        (f32::INFINITY, -1, 0.0, 0.0)
     }
 }
 
