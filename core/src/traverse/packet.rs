@@ -9,9 +9,6 @@
 //! A lane's interval at a node is exactly the scalar walk's, so a lane visits at least the leaves
 //! the scalar walk visits for that ray, and the closest-hit result is the same.
 //!
-//! When the scene has wide nodes (and the core its `wide` feature), the same sign groups walk
-//! them instead ([`super::wide::packet`]), with the same leaves and kernels.
-//!
 //! Packets whose lanes do not share signs are traced as one sub-packet per sign octant (inactive
 //! lanes masked), which keeps partly coherent packets in SIMD; fully incoherent rays are better
 //! served by the scalar walk ([`Scene::intersect`]), which is what `kdray trace --packet 1` and
@@ -72,12 +69,6 @@ impl Scene<'_> {
         let mut query = *rays;
         let shear = C::WATERTIGHT.then(|| ShearX::new(rays));
         for group in sign_groups(rays) {
-            #[cfg(feature = "wide")]
-            if !self.wide_nodes().is_empty() {
-                let octant = super::wide::packet::group_octant(rays, group);
-                self.walk_packet_wide::<C, L, false>(&mut query, group, octant, &mut hits, &shear);
-                continue;
-            }
             self.walk_packet::<C, L, false>(&mut query, group, &mut hits, &shear);
         }
         hits
@@ -90,13 +81,6 @@ impl Scene<'_> {
         let mut occluded = 0u32;
         let shear = C::WATERTIGHT.then(|| ShearX::new(rays));
         for group in sign_groups(rays) {
-            #[cfg(feature = "wide")]
-            if !self.wide_nodes().is_empty() {
-                let octant = super::wide::packet::group_octant(rays, group);
-                occluded |= self
-                    .walk_packet_wide::<C, L, true>(&mut query, group, octant, &mut hits, &shear);
-                continue;
-            }
             occluded |= self.walk_packet::<C, L, true>(&mut query, group, &mut hits, &shear);
         }
         L::mask_from_bits(occluded)
@@ -123,7 +107,7 @@ impl Scene<'_> {
     /// (or, with `ANY`, lanes that hit added to `done` and retired). A grouped leaf's triangles
     /// are read from its groups' lanes, the same bits as the triangles section.
     #[inline(always)]
-    pub(crate) fn leaf_packet<C: Contents, L: Lanes, const ANY: bool>(
+    fn leaf_packet<C: Contents, L: Lanes, const ANY: bool>(
         &self,
         node: &crate::node::Node,
         rays: &mut RayPacket<L>,
@@ -337,7 +321,7 @@ fn sign_groups<L: Lanes>(rays: &RayPacket<L>) -> impl Iterator<Item = u32> {
 
 /// [`crate::traverse::widen`] lane by lane: `(lo, hi)` bracketing each lane's exact distance.
 #[inline(always)]
-pub(crate) fn widen_lanes<L: Lanes>(t: L) -> (L, L) {
+fn widen_lanes<L: Lanes>(t: L) -> (L, L) {
     let tiny = L::splat(TINY);
     let (a, b) = (t * L::splat(1.0 - WIDEN), t * L::splat(1.0 + WIDEN));
     (a.min(b) - tiny, a.max(b) + tiny)

@@ -161,10 +161,8 @@ fn main() {
         trace_scalar(&wide, r, h);
         to_input_ids(&wide, h);
     });
-    run("kdray wide packet 8", Family::Kdray, None, &mut |r, h| {
-        trace_packets::<f32x8>(&wide, r, h);
-        to_input_ids(&wide, h);
-    });
+    // The stream over it: coherent runs as packets over the nodes, the rest as single rays over
+    // the wide nodes.
     run("kdray wide stream", Family::Kdray, None, &mut |r, h| {
         let words = kdray_core::traverse::stream::scratch_words(r.len());
         kdray_core::traverse::stream::intersect(&wide, &config, r, h, &mut scratch[..words])

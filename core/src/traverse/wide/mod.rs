@@ -57,8 +57,6 @@ use crate::format::Scene;
 use crate::node::Node;
 use glam::Vec3;
 
-#[cfg(feature = "wide")]
-pub mod packet;
 pub mod validate;
 pub mod walk;
 
