@@ -1,6 +1,6 @@
 //! Rays and triangles at the edges of f32 (issue 29): a ray starting on the scene box with a
-//! subnormal direction component, whose `1/d` overflows, is traced by every walk (one ray, blocks,
-//! groups, interleaved, stream, packets), fast and watertight.
+//! subnormal direction component, whose `1/d` overflows, is traced by every walk (one ray over
+//! nodes or wide nodes, groups, stream, packets), fast and watertight.
 
 use glam::Vec3;
 use kdray::Geometry;
@@ -8,7 +8,7 @@ use kdray::build::build;
 use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::simd::{RayPacket, f32x8};
 use kdray_core::traverse::Mode;
-use kdray_core::traverse::stream::{self, Config, InFlight, Packets};
+use kdray_core::traverse::stream::{self, Config, Packets};
 use kdray_core::{Hit, Ray, Scene};
 
 /// The closed cube `[−1, 1]³`, two triangles a face.
@@ -43,7 +43,7 @@ fn cube() -> Geometry {
     }
 }
 
-/// Every way of storing the cube's tree: nodes or blocks, index lists or groups.
+/// Every way of storing the cube's tree: nodes or wide nodes, index lists or groups.
 fn cube_scenes() -> Vec<(String, Vec<u32>)> {
     let geom = cube();
     let mut out = Vec::new();
@@ -55,7 +55,7 @@ fn cube_scenes() -> Vec<(String, Vec<u32>)> {
             ..leaves.build_params()
         };
         let tree = build(&geom, &params, None).expect("the cube builds");
-        for layout in [Layout::Nodes, Layout::Blocked] {
+        for layout in [Layout::Nodes, Layout::Wide] {
             let words = serialize_as(&tree, &geom, 0.0, layout, leaves).expect("fits");
             out.push((format!("{leaves:?} {layout:?}"), words));
         }
@@ -63,13 +63,11 @@ fn cube_scenes() -> Vec<(String, Vec<u32>)> {
     out
 }
 
-/// `rays` by every walk in `mode`: one ray at a time, interleaved, the stream without packets,
+/// `rays` by every walk in `mode`: one ray at a time, the stream without packets,
 /// 8-wide packets; the name of each walk with its hits.
 fn every_walk(scene: &Scene, rays: &[Ray], mode: Mode) -> Vec<(&'static str, Vec<Hit>)> {
     let n = rays.len();
     let single = rays.iter().map(|r| scene.intersect_in(mode, r)).collect();
-    let mut interleaved = vec![Hit::MISS; n];
-    stream::intersect_interleaved(scene, mode, InFlight::Four, rays, &mut interleaved).unwrap();
     let config = Config {
         mode,
         packets: Packets::Off,
@@ -87,7 +85,6 @@ fn every_walk(scene: &Scene, rays: &[Ray], mode: Mode) -> Vec<(&'static str, Vec
     }
     vec![
         ("single", single),
-        ("interleaved", interleaved),
         ("stream", streamed),
         ("packets", packets),
     ]
