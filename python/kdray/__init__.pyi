@@ -35,7 +35,7 @@ class Scene:
         *,
         watertight: bool = False,
         threads: Optional[int] = None,
-        layout: str = "nodes",
+        layout: str = "wide",
         leaves: str = "groups",
     ) -> None: ...
     @classmethod
@@ -45,7 +45,7 @@ class Scene:
         *,
         watertight: bool = False,
         threads: Optional[int] = None,
-        layout: str = "nodes",
+        layout: str = "wide",
         leaves: str = "groups",
     ) -> "Scene": ...
     @classmethod

@@ -9,7 +9,7 @@
 //! Embree.
 //!
 //! Closest and any hits go through the core's ray stream (`kdray_core::traverse::stream`: coherent
-//! runs as packets, the rest sorted and traced as interleaved single rays), one stream per piece
+//! runs as packets, the rest sorted and traced as single rays), one stream per piece
 //! of the batch; every hit along a ray through the host's exact crossings (`kdray::crossings`).
 
 use crate::mesh::{number, row};

@@ -33,21 +33,22 @@ export function loadOptions(options) {
 }
 
 /**
- * kdj_build's `layout` and `leaves` arguments from a build's options: `layout` 'nodes' (default)
- * or 'blocked'; `leaves` 'groups' (default: triangles four to a SIMD group, tested at once) or
+ * kdj_build's `layout` and `leaves` arguments from a build's options: `layout` 'wide' (default:
+ * the tree also as eight-wide nodes with tight boxes, faster single rays) or 'nodes'; `leaves` 'groups' (default: triangles four to a SIMD group, tested at once) or
  * 'list' (index lists: about half the memory, slower single rays). Anything else throws.
  */
 export function buildFlags(options) {
   checkOptions(options, BUILD_OPTIONS, 'Scene.build');
-  const layout = options?.layout ?? 'nodes';
+  const layout = options?.layout ?? 'wide';
   const leaves = options?.leaves ?? 'groups';
-  if (layout !== 'nodes' && layout !== 'blocked') {
-    throw new TypeError(`kdray: options.layout must be 'nodes' or 'blocked', not ${JSON.stringify(layout)}`);
+  if (layout !== 'wide' && layout !== 'nodes') {
+    const retired = layout === 'blocked' ? " ('blocked' was retired: 'wide' replaces it)" : '';
+    throw new TypeError(`kdray: options.layout must be 'wide' or 'nodes', not ${JSON.stringify(layout)}${retired}`);
   }
   if (leaves !== 'groups' && leaves !== 'list') {
     throw new TypeError(`kdray: options.leaves must be 'groups' or 'list', not ${JSON.stringify(leaves)}`);
   }
-  return [layout === 'blocked' ? 1 : 0, leaves === 'groups' ? 1 : 0];
+  return [layout === 'wide' ? 1 : 0, leaves === 'groups' ? 1 : 0];
 }
 
 function describe(x) {
