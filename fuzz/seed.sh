@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p fuzz/corpus/from_words
-cargo run -q -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default.kdt
+cargo run -q -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default.kdt --layout nodes
 tmp=$(mktemp -d)
 python3 - "$tmp/fan.tri" <<'PY'
 import struct, sys
@@ -17,14 +17,11 @@ with open(sys.argv[1], "wb") as f:
     for t in tris:
         f.write(struct.pack("<9f", *t))
 PY
-cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan.kdt
-# The same two with a blocks section (format v7's blocked layout).
-cargo run -q -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default-blocked.kdt --layout blocked
-cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-blocked.kdt --layout blocked
-# And with triangle groups (format v9), alone and with blocks.
-cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-groups.kdt --leaves groups
-cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-blocked-groups.kdt --leaves groups --layout blocked
-# And with wide nodes (format v10), with lists and with groups.
+cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan.kdt --layout nodes --leaves list
+# And with triangle groups (format v9).
+cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-groups.kdt --layout nodes --leaves groups
+# And with wide nodes (format v10; `build`'s default layout), with lists and with groups.
 cargo run -q -p kdray -- build host/scenes/default.toml -o fuzz/corpus/from_words/default-wide.kdt --layout wide
+cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-wide.kdt --leaves list --layout wide
 cargo run -q -p kdray -- build "$tmp/fan.tri" -o fuzz/corpus/from_words/fan-wide-groups.kdt --leaves groups --layout wide
 rm -rf "$tmp"

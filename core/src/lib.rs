@@ -62,10 +62,10 @@
 //! - [`traverse`]: every walk of the tree, one module each, and what they share (its module doc
 //!   says which to use when): [`traverse::single`], one ray's closest or any hit;
 //!   [`traverse::steps`], that walk as resumable steps over an explicit state;
-//!   [`traverse::packet`], 4- and 8-wide packets; [`traverse::blocked`], the cache-line-blocked
-//!   copy of the tree (three levels per 64-byte block) and its walk; [`traverse::stream`], ray
-//!   streams — many rays in one call, sorted into packets and interleaved single rays, answers in
-//!   input order. [`prefetch`]: the cache hint the interleaved walk issues.
+//!   [`traverse::packet`], 4- and 8-wide packets; [`traverse::wide`], the tree collapsed into
+//!   eight-wide nodes with tight boxes and their single-ray walk; [`traverse::stream`], ray
+//!   streams — many rays in one call, sorted into packets and single rays, answers in input
+//!   order.
 //! - [`render`]: the render kernel, a path tracer writing into a caller's buffer.
 //! - [`description`]: the render description (camera, settings, materials, lights) that a target
 //!   reads next to the scene's words; [`words`]: bytes (`include_bytes!`, a fetch) viewed as
@@ -92,7 +92,6 @@ pub mod isa;
 pub mod math;
 pub mod node;
 pub mod optics;
-pub mod prefetch;
 pub mod ray;
 pub mod render;
 pub mod sampling;

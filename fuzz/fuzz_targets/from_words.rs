@@ -5,10 +5,7 @@
 //! checksum path covered. A scene it accepts is then traced, scalar and in 4- and 8-wide packets,
 //! along a fixed fan of rays through its box, and the three must agree (the same `t` bits; a
 //! different primitive only as a tie at that `t`), for closest hits and for occlusion. A scene
-//! with a blocks section (format v7) is also traced over its nodes
-//! ([`Scene::without_blocks`]): the walk over the blocks, alone and 16 interleaved, must return
-//! the node walk's hits bit for bit. A scene with triangle groups (format v9) is checked the same
-//! way: its single rays test four triangles at once with the group kernels, its packets read the
+//! with triangle groups (format v9) is checked the same way: its single rays test four triangles at once with the group kernels, its packets read the
 //! groups' lanes one triangle at a time, and the two must agree. A scene with wide nodes
 //! (format v10) is traced over them and over its nodes ([`Scene::without_wide`]): in watertight
 //! mode both find the closest hit, so the `t` bits must agree (a different primitive only as a tie
@@ -22,8 +19,7 @@
 use glam::Vec3;
 use kdray_core::format::seal;
 use kdray_core::traverse::Mode;
-use kdray_core::traverse::stream::{self, InFlight};
-use kdray_core::{Hit, Ray, Scene};
+use kdray_core::{Ray, Scene};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
@@ -41,29 +37,6 @@ fuzz_target!(|data: &[u8]| {
     kdray_fuzz::packets_agree_with_scalar(&scene, &rays);
     if !scene.wide_nodes().is_empty() {
         wide_agrees_with_nodes(&scene, &rays);
-    }
-    if !scene.blocks().is_empty() {
-        let nodes = scene.without_blocks();
-        for ray in &rays {
-            for mode in [Mode::Fast, Mode::Watertight] {
-                let (a, b) = (scene.intersect_in(mode, ray), nodes.intersect_in(mode, ray));
-                assert_eq!(bits(a), bits(b), "{mode:?} {ray:?}");
-                assert_eq!(scene.occluded_in(mode, ray), nodes.occluded_in(mode, ray));
-            }
-        }
-        // The interleaved walk over the blocks (16 in flight) too.
-        for mode in [Mode::Fast, Mode::Watertight] {
-            let mut hits = vec![Hit::MISS; rays.len()];
-            let _ =
-                stream::intersect_interleaved(&scene, mode, InFlight::Sixteen, &rays, &mut hits);
-            for (ray, hit) in rays.iter().zip(&hits) {
-                assert_eq!(
-                    bits(*hit),
-                    bits(nodes.intersect_in(mode, ray)),
-                    "{mode:?} {ray:?}"
-                );
-            }
-        }
     }
 });
 
@@ -99,10 +72,6 @@ fn wide_agrees_with_nodes(scene: &Scene, rays: &[Ray]) {
             }
         }
     }
-}
-
-fn bits(h: Hit) -> [u32; 4] {
-    [h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()]
 }
 
 /// Rays from outside the box towards its centre and its corners, along the axes (±0 components)

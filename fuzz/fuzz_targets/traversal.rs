@@ -3,8 +3,8 @@
 //!
 //! - scalar, 4-wide and 8-wide packets must agree exactly (the same `t` bits; a different
 //!   primitive only as a tie at that `t`), for closest hits and for occlusion, whatever the rays;
-//!   so must the interleaved single-ray walk and the ray-stream API (bit for bit, ties included,
-//!   where no packet traces; the rays, up to 64, are one stream);
+//!   so must the ray-stream API (bit for bit, ties included, where no packet traces; the rays, up
+//!   to 64, are one stream);
 //! - the scene's triangles alone, stored with triangle groups (format v9), must give the hits of
 //!   the same tree stored with an index list, bit for bit, single rays and packets, both modes;
 //! - fast and watertight mode must agree on rays whose nearer hit is not near an edge, not

@@ -79,66 +79,50 @@ fn check<L: Lanes>(scene: &Scene, rays: &[Ray], scalar: &[Hit], occluded: &[bool
     }
 }
 
-/// Traces `rays` through the interleaved single-ray walk (4 and 16 in flight) and the ray-stream
-/// API (without packets, and with 8-wide packets under a rule that admits any two rays of an
-/// octant, so that most rays become packets), and panics unless each agrees with the scalar
-/// walk's `scalar` hits: exactly (every bit, the primitive included) where the answer comes from
-/// the single-ray walk, and as [`packets_agree_with_scalar`] requires where packets may form.
-/// Occlusion must match too.
+/// Traces `rays` through the ray-stream API (without packets, and with 8-wide packets under a
+/// rule that admits any two rays of an octant, so that most rays become packets), and panics
+/// unless each agrees with the scalar walk's `scalar` hits: exactly (every bit, the primitive
+/// included) where the answer comes from the single-ray walk, and as
+/// [`packets_agree_with_scalar`] requires where packets may form. Occlusion must match too.
 pub fn stream_agrees_with_scalar(scene: &Scene, rays: &[Ray], scalar: &[Hit]) {
-    use kdray_core::traverse::Mode;
-    use kdray_core::traverse::stream::{self, Coherence, Config, InFlight, Packets};
+    use kdray_core::traverse::stream::{self, Coherence, Config, Packets};
     let bits = |h: &Hit| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits());
     let occluded: Vec<bool> = rays.iter().map(|r| scene.occluded(r)).collect();
     let n = rays.len();
-    for in_flight in [InFlight::Four, InFlight::Sixteen] {
+    for packets in [Packets::Off, Packets::Eight] {
+        let config = Config {
+            packets,
+            coherence: Coherence {
+                min_cos: -1.0,
+                max_origin: 10.0,
+            },
+            ..Config::default()
+        };
+        let mut scratch = vec![0; stream::scratch_words(n)];
         let mut hits = vec![Hit::MISS; n];
-        stream::intersect_interleaved(scene, Mode::Fast, in_flight, rays, &mut hits)
-            .expect("lengths match");
+        stream::intersect(scene, &config, rays, &mut hits, &mut scratch).expect("sized");
+        let mut occ = vec![false; n];
+        stream::occluded(scene, &config, rays, &mut occ, &mut scratch).expect("sized");
         for (i, (h, w)) in hits.iter().zip(scalar).enumerate() {
-            assert_eq!(
-                bits(h),
-                bits(w),
-                "interleaved {in_flight:?}: ray {i} {:?}",
-                rays[i]
-            );
-        }
-        for packets in [Packets::Off, Packets::Eight] {
-            let config = Config {
-                packets,
-                in_flight,
-                coherence: Coherence {
-                    min_cos: -1.0,
-                    max_origin: 10.0,
-                },
-                ..Config::default()
-            };
-            let mut scratch = vec![0; stream::scratch_words(n)];
-            let mut hits = vec![Hit::MISS; n];
-            stream::intersect(scene, &config, rays, &mut hits, &mut scratch).expect("sized");
-            let mut occ = vec![false; n];
-            stream::occluded(scene, &config, rays, &mut occ, &mut scratch).expect("sized");
-            for (i, (h, w)) in hits.iter().zip(scalar).enumerate() {
-                if packets == Packets::Off {
-                    assert_eq!(bits(h), bits(w), "stream {config:?}: ray {i} {:?}", rays[i]);
-                } else {
-                    assert_eq!(
-                        h.t.to_bits(),
-                        w.t.to_bits(),
-                        "stream t: ray {i} {:?}",
-                        rays[i]
-                    );
-                    assert!(
-                        h.prim == w.prim || (h.is_hit() && w.is_hit()),
-                        "stream prim: ray {i}"
-                    );
-                }
+            if packets == Packets::Off {
+                assert_eq!(bits(h), bits(w), "stream {config:?}: ray {i} {:?}", rays[i]);
+            } else {
                 assert_eq!(
-                    occ[i], occluded[i],
-                    "stream occlusion: ray {i} {:?}",
+                    h.t.to_bits(),
+                    w.t.to_bits(),
+                    "stream t: ray {i} {:?}",
                     rays[i]
                 );
+                assert!(
+                    h.prim == w.prim || (h.is_hit() && w.is_hit()),
+                    "stream prim: ray {i}"
+                );
             }
+            assert_eq!(
+                occ[i], occluded[i],
+                "stream occlusion: ray {i} {:?}",
+                rays[i]
+            );
         }
     }
 }

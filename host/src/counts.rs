@@ -2,8 +2,7 @@
 //! visits, triangle groups and single primitive tests. The count runs the core's own single-ray
 //! walk over the node section ([`kdray_core::traverse::steps::Stepper`]), one step at a time, with
 //! a query that counts each leaf's work and hands it on to [`Closest`], so the walk counted is the
-//! walk traced (the blocks section, if any, is not walked: its steps are the nodes'). A scene with
-//! wide nodes is counted on its wide walk
+//! walk traced. A scene with wide nodes is counted on its wide walk
 //! ([`kdray_core::traverse::wide::walk::walk_counted`]): its steps are wide nodes.
 
 use kdray_core::format::LeafPrims;
@@ -96,7 +95,7 @@ fn count_with<C: Contents>(scene: &Scene, rays: &[Ray]) -> Counts {
             inner: Closest::new::<C>(ray),
             counts: &mut counts,
         };
-        while scene.step::<C, _, false>(&mut state, &mut q) != Progress::Done {
+        while scene.step::<C, _>(&mut state, &mut q) != Progress::Done {
             steps += 1;
         }
         steps += 1; // the step that ended the walk

@@ -157,9 +157,8 @@ pub fn all_hits(scene: &Scene, ray: &Ray, watertight: bool, hits: &mut Vec<AllHi
 fn walk<C: Contents>(scene: &Scene, ray: &Ray, query: &mut impl Query) {
     let mut state = <Scene as Stepper>::empty_state();
     if scene.begin::<C>(ray, &mut state) {
-        while scene.step::<C, _, false>(&mut state, query)
-            != kdray_core::traverse::steps::Progress::Done
-        {}
+        while scene.step::<C, _>(&mut state, query) != kdray_core::traverse::steps::Progress::Done {
+        }
     }
 }
 

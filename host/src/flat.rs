@@ -5,23 +5,24 @@ use crate::build::clip::Aabb;
 use crate::build::{BuildNode, BuildParams, Tree};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header, stride};
+use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header};
 use kdray_core::group;
 use kdray_core::node::Node;
 use kdray_core::{Scene, Triangle};
 use std::io::Write;
 use std::path::Path;
 
-/// How the tree is stored: the node section alone, or also cut into cache-line blocks
-/// (`kdray_core::traverse::blocked`), which the single-ray queries then walk.
+/// How the tree is stored: the node section alone, or also collapsed into wide nodes
+/// (`kdray_core::traverse::wide`), which the single-ray queries then walk. (Format 7 to 11's
+/// cache-line blocks, `Blocked`, were retired in format 12: the wide nodes walk single rays
+/// faster; docs/BENCHMARKS.md, "Retired: blocks and interleaved walks".)
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Layout {
-    /// 8-byte nodes only (pbrt-v3's layout).
+    /// 8-byte nodes only (pbrt-v3's layout): the smallest file, what packets and targets built
+    /// without the core's `wide` feature walk.
     #[default]
     Nodes,
-    /// The nodes and a blocks section: three levels of the tree per 64-byte block.
-    Blocked,
     /// The nodes and a wide section: eight children a node, each with a tight box
     /// (`kdray_core::traverse::wide`), which the single-ray queries then walk.
     Wide,
@@ -64,11 +65,11 @@ pub fn serialize(
 }
 
 /// Flattens `tree` in depth-first order (below child first: the order `Scene::from_words`
-/// requires), cuts it into blocks for [`Layout::Blocked`], and appends the geometry sections the
-/// scene needs.
+/// requires), appends the geometry sections the scene needs, and for [`Layout::Wide`] the wide
+/// section.
 ///
 /// # Errors
-/// A tree too large for the node fields (2³⁰ nodes or primitives in one leaf) or the blocks;
+/// A tree too large for the node fields (2³⁰ nodes or primitives in one leaf) or the wide nodes;
 /// [`Leaves::Groups`] for a scene with spheres.
 pub fn serialize_as(
     tree: &Tree,
@@ -88,11 +89,6 @@ pub fn serialize_as(
     let mut indices: Vec<u32> = Vec::new();
     let depth = flatten(&tree.root, &mut nodes, &mut indices)?;
     let input_ids = leaf_order(&mut nodes, &mut indices, geom.triangles.len());
-    let blocks = match layout {
-        Layout::Nodes => Vec::new(),
-        Layout::Blocked => crate::blocks::to_blocks(&nodes)?,
-        Layout::Wide => Vec::new(),
-    };
     let reordered = input_ids.as_ref().map(|ids| reorder(geom, ids));
     let geom = reordered.as_ref().unwrap_or(geom);
     let n_tris = geom.triangles.len();
@@ -195,17 +191,6 @@ pub fn serialize_as(
             &mut ids.iter().copied(),
         );
     }
-    if !blocks.is_empty() {
-        c |= contents::BLOCKED;
-        // Blocks start on a 16-word boundary (a cache line in 64-byte aligned words).
-        words.resize(words.len().next_multiple_of(stride::BLOCK), 0);
-        section(
-            &mut words,
-            header::BLOCKS_OFFSET,
-            &mut blocks.iter().flatten().copied(),
-        );
-        words[header::BLOCK_COUNT] = blocks.len() as u32;
-    }
     if !groups.is_empty() {
         c |= contents::GROUPS;
         section(
@@ -247,7 +232,7 @@ fn append_wide(words: &mut Vec<u32>) -> core::result::Result<(), String> {
     let scene = Scene::from_words(words).map_err(|e| format!("internal: {e}"))?;
     let wide = crate::wide::to_wide(&scene)?;
     // Wide nodes start on a 16-word boundary (a cache line in 64-byte aligned words).
-    words.resize(words.len().next_multiple_of(16), 0);
+    words.resize(words.len().next_multiple_of(format::LINE_WORDS), 0);
     words[header::WIDE_OFFSET] = words.len() as u32;
     words[header::WIDE_COUNT] = wide.len() as u32;
     words.extend(wide.iter().flatten());
@@ -416,10 +401,10 @@ pub fn stage_kdt(path: &Path, words: &[u32]) -> Result<crate::files::Staged> {
     })
 }
 
-/// Words whose first one lies on a 64-byte boundary, so that the blocks section (at a multiple of
+/// Words whose first one lies on a 64-byte boundary, so that the wide section (at a multiple of
 /// 16 words in the file) is made of whole cache lines; a `Vec<u32>` is only 4-byte aligned (and
 /// a large one from the system allocator typically 16 bytes past a page), which would split every
-/// block across two lines. Derefs to the words.
+/// line of a wide node across two. Derefs to the words.
 #[derive(Clone, Debug)]
 pub struct Aligned {
     buf: Vec<u32>,

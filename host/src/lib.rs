@@ -55,7 +55,6 @@ pub use error::{Error, Result};
 pub use geometry::Geometry;
 #[cfg(feature = "cli")]
 pub mod accuracy;
-pub mod blocks;
 pub mod build;
 pub mod closed;
 #[cfg(feature = "cli")]

@@ -74,12 +74,12 @@ fn build_info_trace_round_trip() {
     let hits = d.join("hits.bin");
     // Every input kind, packet width and mode gives the same hits (4 rays: one partial packet of
     // 8).
-    // Also through the stream API and the interleaved single-ray walk.
+    // Also through the stream API.
     for (input, packet, mode, how) in [&kdt, &mesh]
         .into_iter()
         .flat_map(|i| ["1", "4", "8"].map(|p| (i, p)))
         .flat_map(|(i, p)| ["fast", "watertight"].map(|m| (i, p, m)))
-        .flat_map(|(i, p, m)| [&[][..], &["--stream"], &["--in-flight", "8"]].map(|h| (i, p, m, h)))
+        .flat_map(|(i, p, m)| [&[][..], &["--stream"]].map(|h| (i, p, m, h)))
     {
         let mut args = vec![
             "trace",
@@ -131,11 +131,12 @@ fn build_info_trace_round_trip() {
     }
 }
 
-/// `build --layout blocked` writes a blocks section that `info` reports and `trace` walks, to the
-/// same hits file as the nodes-only layout (single rays and packets, both modes).
+/// `build --layout wide` writes a wide section that `info` reports and `trace` walks, to the
+/// same hits file as the nodes-only layout (single rays, the stream and packets, both modes); the
+/// retired `--layout blocked` and `--in-flight` are usage errors that say what replaces them.
 #[test]
-fn blocked_layout_round_trip() {
-    let d = dir("blocked");
+fn wide_layout_round_trip() {
+    let d = dir("wide");
     let mesh = d.join("scatter.tri");
     let tris: Vec<[f32; 9]> = (0..400)
         .map(|i| {
@@ -177,17 +178,20 @@ fn blocked_layout_round_trip() {
         );
         kdt
     };
-    let (nodes, blocked) = (kdt("nodes"), kdt("blocked"));
-    let info = String::from_utf8_lossy(&kdray(&["info", s(&blocked)]).stdout).into_owned();
-    assert!(info.contains("layout          blocked ("), "{info}");
+    let (nodes, wide) = (kdt("nodes"), kdt("wide"));
+    let info = String::from_utf8_lossy(&kdray(&["info", s(&wide)]).stdout).into_owned();
+    assert!(info.contains("layout          wide ("), "{info}");
     let info = String::from_utf8_lossy(&kdray(&["info", s(&nodes)]).stdout).into_owned();
     assert!(info.contains("layout          nodes ("), "{info}");
-    for packet in ["1", "8"] {
+    for (packet, stream) in [("1", false), ("1", true), ("8", false)] {
         for watertight in [false, true] {
             let trace = |kdt: &Path, name: &str| {
                 let hits = d.join(name);
                 let mut args = vec!["trace", s(kdt), "--rays", s(&rays), "--out", s(&hits)];
                 args.extend(["--packet", packet, "--threads", "1"]);
+                if stream {
+                    args.push("--stream");
+                }
                 if watertight {
                     args.push("--watertight");
                 }
@@ -203,15 +207,40 @@ fn blocked_layout_round_trip() {
                 )
             };
             let (line_n, hits_n) = trace(&nodes, "nodes.hits");
-            let (line_b, hits_b) = trace(&blocked, "blocked.hits");
+            let (line_w, hits_w) = trace(&wide, "wide.hits");
             assert!(line_n.contains("layout=nodes"), "{line_n}");
-            assert!(line_b.contains("layout=blocked"), "{line_b}");
+            assert!(line_w.contains("layout=wide"), "{line_w}");
             assert!(
-                line_b.contains("hits=") && !line_b.contains("hits=0 "),
-                "{line_b}"
+                line_w.contains("hits=") && !line_w.contains("hits=0 "),
+                "{line_w}"
             );
-            assert!(hits_n == hits_b, "packet {packet}, watertight {watertight}");
+            assert!(
+                hits_n == hits_w,
+                "packet {packet}, stream {stream}, watertight {watertight}"
+            );
         }
+    }
+    let retired: [&[&str]; 2] = [
+        &["build", s(&mesh), "-o", "x.kdt", "--layout", "blocked"],
+        &[
+            "trace",
+            s(&wide),
+            "--rays",
+            s(&rays),
+            "--out",
+            "h",
+            "--in-flight",
+            "16",
+        ],
+    ];
+    for args in retired {
+        let out = kdray(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("retired") && err.contains("wide"),
+            "{args:?}: {err}"
+        );
     }
 }
 
@@ -248,12 +277,7 @@ fn hits_report_input_order() {
     std::fs::write(&rays_file, ray_bytes(&rays)).unwrap();
     let hits = d.join("hits.bin");
     // The stream reorders rays internally: its hits too must come back in input order.
-    let hows: [&[&str]; 4] = [
-        &[],
-        &["--stream"],
-        &["--stream", "--in-flight", "16"],
-        &["--in-flight", "4"],
-    ];
+    let hows: [&[&str]; 2] = [&[], &["--stream"]];
     for (packet, how) in ["1", "4", "8"]
         .into_iter()
         .flat_map(|p| hows.map(|h| (p, h)))
@@ -396,14 +420,7 @@ fn usage_errors_exit_2() {
     );
     assert_eq!(
         kdray(&[
-            "trace",
-            "x.tri",
-            "--rays",
-            "r",
-            "--out",
-            "h",
-            "--in-flight",
-            "3"
+            "trace", "x.tri", "--rays", "r", "--out", "h", "--layout", "tiles"
         ])
         .status
         .code(),

@@ -39,8 +39,8 @@ CONTAINS_DIRECTION = tuple(float(x) for x in _kdray.CONTAINS_DIRECTION)
 #: builds it (the repository's ``.cargo/config.toml``), a portable wheel for SSE2.
 ISA: str = _kdray.ISA
 
-_BUILD_OPTIONS = {"layout": ("nodes", "blocked"), "leaves": ("groups", "list")}
-_DEFAULTS = {"layout": "nodes", "leaves": "groups"}
+_BUILD_OPTIONS = {"layout": ("wide", "nodes"), "leaves": ("groups", "list")}
+_DEFAULTS = {"layout": "wide", "leaves": "groups"}
 
 
 class Hits(NamedTuple):
@@ -170,8 +170,14 @@ def _build_options(options: dict) -> dict:
                 f"unknown build option {key!r} (the options: {', '.join(_BUILD_OPTIONS)})"
             )
         if value not in _BUILD_OPTIONS[key]:
+            retired = (
+                " ('blocked' was retired in kdray's format 12: 'wide' replaces it)"
+                if (key, value) == ("layout", "blocked")
+                else ""
+            )
             raise ValueError(
-                f"{key}={value!r}: it must be one of {', '.join(map(repr, _BUILD_OPTIONS[key]))}"
+                f"{key}={value!r}: it must be one of "
+                f"{', '.join(map(repr, _BUILD_OPTIONS[key]))}{retired}"
             )
         out[key] = value
     return out
@@ -180,7 +186,7 @@ def _build_options(options: dict) -> dict:
 class Scene:
     """A triangle mesh and its SAH kd-tree, ready to trace rays.
 
-    ``Scene(vertices, faces=None, *, watertight=False, threads=None, layout='nodes',
+    ``Scene(vertices, faces=None, *, watertight=False, threads=None, layout='wide',
     leaves='groups')``
 
     - ``vertices``: ``(N, 3)`` floats (float32 is used as given, float64 converted once).
@@ -190,8 +196,9 @@ class Scene:
       (slower); :meth:`count_intersections`, :meth:`intersect_all` and :meth:`contains` are
       always exact.
     - ``threads``: the threads the build uses (default: every core).
-    - build options: ``layout`` (``'nodes'`` or ``'blocked'``: also store the tree in cache-line
-      blocks for single-ray walks) and ``leaves`` (``'groups'``: triangles four to a SIMD group,
+    - build options: ``layout`` (``'wide'``: also store the tree as eight-wide nodes with tight
+      boxes, which single rays walk faster; or ``'nodes'``: the binary nodes only, a smaller
+      tree) and ``leaves`` (``'groups'``: triangles four to a SIMD group,
       or ``'list'``: index lists), as ``kdray build --layout/--leaves``.
 
     Triangles are reported by their index in ``faces`` (input order). Degenerate triangles are

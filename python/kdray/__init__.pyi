@@ -36,7 +36,7 @@ class Scene:
         *,
         watertight: bool = False,
         threads: Optional[int] = None,
-        layout: str = "nodes",
+        layout: str = "wide",
         leaves: str = "groups",
     ) -> None: ...
     @classmethod
@@ -46,7 +46,7 @@ class Scene:
         *,
         watertight: bool = False,
         threads: Optional[int] = None,
-        layout: str = "nodes",
+        layout: str = "wide",
         leaves: str = "groups",
     ) -> "Scene": ...
     @classmethod

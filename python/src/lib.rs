@@ -59,11 +59,11 @@ fn on_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyR
 
 fn options(layout: &str, leaves: &str, threads: Option<usize>) -> PyResult<Options> {
     let layout = match layout {
+        "wide" => Layout::Wide,
         "nodes" => Layout::Nodes,
-        "blocked" => Layout::Blocked,
         _ => {
             return Err(value_error(format!(
-                "layout={layout:?}: it must be 'nodes' or 'blocked'"
+                "layout={layout:?}: it must be 'wide' or 'nodes'"
             )));
         }
     };
@@ -264,10 +264,10 @@ impl Tree {
         d.set_item("bytes", self.owned.words().len() * 4)?;
         d.set_item(
             "layout",
-            if scene.blocks().is_empty() {
+            if scene.wide_nodes().is_empty() {
                 "nodes"
             } else {
-                "blocked"
+                "wide"
             },
         )?;
         d.set_item("leaves", if scene.has_groups() { "groups" } else { "list" })?;

@@ -14,7 +14,7 @@ use kdray_core::format::contents;
 use self_cell::self_cell;
 
 self_cell!(
-    /// The words of a tree (64-byte aligned: the blocks section on whole cache lines) and the
+    /// The words of a tree (64-byte aligned: the wide section on whole cache lines) and the
     /// validated scene that borrows them.
     pub struct Owned {
         owner: Aligned,

@@ -12,8 +12,8 @@
 //!
 //! Closest hits take the walk `kdray trace` is fastest with for the rays at hand (`closest`); any
 //! hits go through the core's ray stream (`kdray_core::traverse::stream`: coherent runs as
-//! packets, the rest sorted and traced as interleaved single rays), one stream per piece of the
-//! batch; every hit along a ray through the host's exact crossings (`kdray::crossings`).
+//! packets, the rest sorted and traced as single rays), one stream per piece of the batch; every
+//! hit along a ray through the host's exact crossings (`kdray::crossings`).
 
 use crate::mesh::{number, row};
 use glam::Vec3;

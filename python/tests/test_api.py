@@ -133,9 +133,10 @@ def test_dtypes(rng):
 
 def test_files_and_bytes_round_trip(tmp_path, rng):
     vertices, faces = random_mesh(rng)
-    scene = kdray.Scene(vertices, faces, layout="blocked", leaves="list")
+    scene = kdray.Scene(vertices, faces, layout="nodes", leaves="list")
     info = scene.info
-    assert info["triangles"] == len(faces) and info["layout"] == "blocked"
+    assert info["triangles"] == len(faces) and info["layout"] == "nodes"
+    assert kdray.Scene(vertices, faces).info["layout"] == "wide"
     assert info["leaves"] == "list" and info["bytes"] == len(scene.to_bytes())
     lo, hi = info["bounds"]
     np.testing.assert_allclose(lo, vertices[np.unique(faces)].min(axis=0))

@@ -11,7 +11,7 @@ from conftest import tetrahedron
 
 
 @pytest.mark.parametrize("case", cases(), ids=lambda c: c[0])
-@pytest.mark.parametrize("options", [{}, {"leaves": "list", "layout": "blocked"}])
+@pytest.mark.parametrize("options", [{}, {"leaves": "list", "layout": "nodes"}])
 def test_contains_is_exact_through_vertices_and_edges(case, options):
     name, vertices, faces, points, truth = case
     assert len(points) > 100 and 0.1 < truth.mean() < 0.9

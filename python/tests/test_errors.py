@@ -65,8 +65,10 @@ def test_bad_meshes(vertices, faces, kind, words):
 def test_bad_build_options():
     with raises(TypeError, "unknown build option 'leaf'"):
         kdray.Scene(V, F, leaf="groups")
-    with raises(ValueError, "layout='tiles'", "'nodes'", "'blocked'"):
+    with raises(ValueError, "layout='tiles'", "'wide'", "'nodes'"):
         kdray.Scene(V, F, layout="tiles")
+    with raises(ValueError, "layout='blocked'", "retired", "'wide'"):
+        kdray.Scene(V, F, layout="blocked")
     with raises(ValueError, "threads=0"):
         kdray.Scene(V, F, threads=0)
     with raises(TypeError, "threads", "float"):

@@ -176,6 +176,40 @@ fn version_10_asks_for_a_rebuild() {
     assert!(err.to_string().contains("rebuild the file"), "{err}");
 }
 
+/// A file of version 11 (which could carry the cache-line blocks section, retired in 12) is
+/// refused with a message saying to rebuild it.
+#[test]
+fn version_11_asks_for_a_rebuild() {
+    let mut w = valid_words();
+    w[header::VERSION] = 11;
+    seal(&mut w);
+    let err = check(&w).unwrap_err();
+    assert_eq!(err, FormatError::UnsupportedVersion(11));
+    assert!(err.to_string().contains("rebuild the file"), "{err}");
+}
+
+/// A file that sets the retired blocks bit is refused with an error that names the blocks and
+/// says how to rebuild; the two header words that held the blocks' count and offset must be 0.
+#[test]
+fn the_retired_blocks_bit_and_words_are_refused() {
+    let mut w = valid_words();
+    w[header::CONTENTS] |= contents::RETIRED_BLOCKS;
+    seal(&mut w);
+    let err = check(&w).unwrap_err();
+    assert_eq!(err, FormatError::BlocksRetired);
+    let msg = err.to_string();
+    assert!(
+        msg.contains("blocks") && msg.contains("retired") && msg.contains("kdray build"),
+        "{msg}"
+    );
+    for word in header::UNUSED {
+        let mut w = valid_words();
+        w[word] = 16;
+        seal(&mut w);
+        assert_eq!(check(&w), Err(FormatError::ReservedNotZero), "word {word}");
+    }
+}
+
 /// A triangle with area whose threshold overflows even from the scaled normal (`|e1 × e2|` ≥
 /// 7.7e25: f32 cannot trace it right) is refused, although the stored `+inf` is the threshold its
 /// vertices give: `+inf` stands for "never hit", which is right only for a degenerate triangle.

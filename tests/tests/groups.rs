@@ -1,7 +1,7 @@
 //! Triangle groups (format v9's groups section): one ray against four triangles matches the
 //! scalar kernels lane by lane, bit for bit, in both modes; a tree stored with groups returns
-//! exactly the hits of the same tree stored with an index list, for every walk (one ray, blocks,
-//! interleaved, stream, packets), closest and any hit, fast and watertight; validation rebuilds
+//! exactly the hits of the same tree stored with an index list, for every walk (one ray over
+//! nodes or wide nodes, stream, packets), closest and any hit, fast and watertight; validation rebuilds
 //! each group and refuses any other; the serializer refuses groups for a scene with spheres.
 
 use glam::Vec3;
@@ -13,7 +13,7 @@ use kdray_core::group::{self, GROUP_WORDS, PAD_ID, slot};
 use kdray_core::simd::group::{closest_in_group, intersect_group, intersect_group_watertight};
 use kdray_core::simd::{HitPacket, RayPacket, f32x8};
 use kdray_core::traverse::Mode;
-use kdray_core::traverse::stream::{self, Config, InFlight, Packets};
+use kdray_core::traverse::stream::{self, Config, Packets};
 use kdray_core::watertight::{Shear, intersect_sheared};
 use kdray_core::{Hit, Scene, Triangle};
 use kdray_tests::strategies::{
@@ -127,10 +127,10 @@ proptest! {
         geom in grid_geometry(1),
         isect in prop_oneof![Just(80.0), Just(2.0), Just(20.0)],
         group in prop_oneof![Just(1usize), Just(4)],
-        blocked in any::<bool>(),
+        wide in any::<bool>(),
         rays in prop::collection::vec(traversal_ray(), 1..40),
     ) {
-        let layout = if blocked { Layout::Blocked } else { Layout::Nodes };
+        let layout = if wide { Layout::Wide } else { Layout::Nodes };
         let [list, grouped] = both_leaves(&geom, isect, group, layout);
         let list = Scene::from_words(&list).unwrap();
         let grouped = Scene::from_words(&grouped).unwrap();
@@ -144,19 +144,14 @@ proptest! {
             prop_assert_eq!(&got, &want, "{:?}", mode);
             let occ: Vec<bool> = rays.iter().map(|r| grouped.occluded_in(mode, r)).collect();
             prop_assert_eq!(&occ, &want_occ, "{:?}", mode);
-            for in_flight in [InFlight::Four, InFlight::Sixteen] {
-                let mut hits = vec![Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 }; n];
-                stream::intersect_interleaved(&grouped, mode, in_flight, &rays, &mut hits).unwrap();
-                prop_assert_eq!(&hits.iter().map(bits).collect::<Vec<_>>(), &want, "{:?} {:?}", mode, in_flight);
-                let mut occ = vec![false; n];
-                stream::occluded_interleaved(&grouped, mode, in_flight, &rays, &mut occ).unwrap();
-                prop_assert_eq!(&occ, &want_occ, "{:?} {:?}", mode, in_flight);
-            }
             let config = Config { mode, packets: Packets::Off, ..Config::default() };
             let mut hits = vec![Hit::MISS; n];
             let mut scratch = vec![0u64; stream::scratch_words(n)];
             stream::intersect(&grouped, &config, &rays, &mut hits, &mut scratch).unwrap();
             prop_assert_eq!(&hits.iter().map(bits).collect::<Vec<_>>(), &want, "stream {:?}", mode);
+            let mut occ = vec![false; n];
+            stream::occluded(&grouped, &config, &rays, &mut occ, &mut scratch).unwrap();
+            prop_assert_eq!(&occ, &want_occ, "stream occlusion {:?}", mode);
             for chunk in rays.chunks(8) {
                 let packet = RayPacket::<f32x8>::from_rays(chunk);
                 let (a, b) = (list.intersect_packet_in(mode, &packet), grouped.intersect_packet_in(mode, &packet));

@@ -1,6 +1,6 @@
 //! Rays and triangles at the edges of f32 (issue 29), through every kernel (scalar, 4- and
-//! 8-wide packets, groups; each SIMD lane bit for bit the scalar's) and every walk (one ray,
-//! blocks, groups, interleaved, stream, packets):
+//! 8-wide packets, groups; each SIMD lane bit for bit the scalar's) and every walk (one ray over
+//! nodes or wide nodes, groups, stream, packets):
 //!
 //! - a ray starting on the scene box with a subnormal direction component, whose `1/d`
 //!   overflows, is traced, fast and watertight;
@@ -21,7 +21,7 @@ use kdray_core::simd::{
     Lanes, RayPacket, ShearX, f32x4, f32x8, intersect_triangle_watertight, kernels,
 };
 use kdray_core::traverse::Mode;
-use kdray_core::traverse::stream::{self, Config, InFlight, Packets};
+use kdray_core::traverse::stream::{self, Config, Packets};
 use kdray_core::watertight::{self, Shear};
 use kdray_core::{Hit, Ray, Scene, Triangle};
 use kdray_tests::Lcg;
@@ -74,7 +74,7 @@ fn scenes_of(geom: &Geometry) -> Vec<(String, Vec<u32>)> {
             ..leaves.build_params()
         };
         let tree = build(geom, &params, None).expect("the scene builds");
-        for layout in [Layout::Nodes, Layout::Blocked] {
+        for layout in [Layout::Nodes, Layout::Wide] {
             let words = serialize_as(&tree, geom, 0.0, layout, leaves).expect("fits");
             out.push((format!("{leaves:?} {layout:?}"), words));
         }
@@ -82,13 +82,11 @@ fn scenes_of(geom: &Geometry) -> Vec<(String, Vec<u32>)> {
     out
 }
 
-/// `rays` by every walk in `mode`: one ray at a time, interleaved, the stream without packets,
+/// `rays` by every walk in `mode`: one ray at a time, the stream without packets,
 /// 8-wide packets; the name of each walk with its hits.
 fn every_walk(scene: &Scene, rays: &[Ray], mode: Mode) -> Vec<(&'static str, Vec<Hit>)> {
     let n = rays.len();
     let single = rays.iter().map(|r| scene.intersect_in(mode, r)).collect();
-    let mut interleaved = vec![Hit::MISS; n];
-    stream::intersect_interleaved(scene, mode, InFlight::Four, rays, &mut interleaved).unwrap();
     let config = Config {
         mode,
         packets: Packets::Off,
@@ -106,7 +104,6 @@ fn every_walk(scene: &Scene, rays: &[Ray], mode: Mode) -> Vec<(&'static str, Vec
     }
     vec![
         ("single", single),
-        ("interleaved", interleaved),
         ("stream", streamed),
         ("packets", packets),
     ]

@@ -1,22 +1,29 @@
-//! The ray-stream API and the interleaved single-ray walk against the one-ray walk, ray by ray,
-//! on random scenes: the interleaved walk (any number in flight) and a stream without packets give
-//! exactly the one-ray walk's hits (`t`, primitive, `u`, `v`, bit for bit) and occlusion; a stream
-//! with packets the same `t` bits, and either primitive where two tie at that `t` (as the packet
-//! walks do). Short slices are errors, not panics.
+//! The ray-stream API against the one-ray walk, ray by ray, on random scenes stored with nodes
+//! only or with wide nodes: a stream without packets gives exactly the one-ray walk's hits (`t`,
+//! primitive, `u`, `v`, bit for bit) and occlusion; a stream with packets the same `t` bits, and
+//! either primitive where two tie at that `t` (as the packet walks do). Short slices are errors,
+//! not panics.
 
 use glam::Vec3;
-use kdray_core::traverse::stream::{self, Coherence, Config, InFlight, Packets, StreamError};
+use kdray::Geometry;
+use kdray::build::{BuildParams, build};
+use kdray::flat::{Layout, Leaves, serialize_as};
+use kdray_core::traverse::stream::{self, Coherence, Config, Packets, StreamError};
 use kdray_core::traverse::{Mixed, Mode, Watertight};
 use kdray_core::{Hit, Ray, Scene};
 use kdray_tests::strategies::{grid_geometry, packet_rays, scene_words};
 use proptest::prelude::*;
 
-const IN_FLIGHT: [InFlight; 4] = [
-    InFlight::One,
-    InFlight::Four,
-    InFlight::Eight,
-    InFlight::Sixteen,
-];
+/// `geom`'s tree (index lists: the scenes mix triangles and spheres) with `layout`.
+fn words_with(geom: &Geometry, intersect_cost: f64, layout: Layout) -> Vec<u32> {
+    let params = BuildParams {
+        intersect_cost,
+        parallel: false,
+        ..BuildParams::default()
+    };
+    let tree = build(geom, &params, None).expect("finite geometry builds");
+    serialize_as(&tree, geom, 0.0, layout, Leaves::List).expect("small trees fit the format")
+}
 
 /// A stream: runs of coherent and of arbitrary rays, concatenated (so that both the input pass
 /// and the sorted pass find packets to form).
@@ -46,40 +53,31 @@ macro_rules! stream_matches_scalar {
         proptest! {
             #![proptest_config(ProptestConfig { cases: kdray_tests::cases(200), max_local_rejects: 1 << 24, ..ProptestConfig::default() })]
             #[test]
-            fn $name(geom in grid_geometry(4), isect in prop_oneof![Just(80.0), Just(4.0)], rays in stream_rays(), coherence in rules()) {
-                let words = scene_words(&geom, isect);
+            fn $name(geom in grid_geometry(4), isect in prop_oneof![Just(80.0), Just(4.0)], wide in any::<bool>(), rays in stream_rays(), coherence in rules()) {
+                let words = words_with(&geom, isect, if wide { Layout::Wide } else { Layout::Nodes });
                 let scene = Scene::from_words(&words).unwrap();
+                prop_assert_eq!(scene.wide_nodes().is_empty(), !wide);
                 let want: Vec<Hit> = rays.iter().map(|r| scene.intersect_in($mode, r)).collect();
                 let want_occ: Vec<bool> = rays.iter().map(|r| scene.occluded_in($mode, r)).collect();
                 let n = rays.len();
-                for in_flight in IN_FLIGHT {
+                for packets in [Packets::Off, Packets::Four, Packets::Eight] {
+                    let config = Config { mode: $mode, packets, coherence };
+                    let mut scratch = vec![u64::MAX; stream::scratch_words(n)];
                     let mut hits = vec![Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 }; n];
-                    stream::intersect_interleaved(&scene, $mode, in_flight, &rays, &mut hits).unwrap();
+                    stream::intersect(&scene, &config, &rays, &mut hits, &mut scratch).unwrap();
                     for i in 0..n {
-                        prop_assert_eq!(bits(&hits[i]), bits(&want[i]), "interleaved {:?} ray {} {:?}", in_flight, i, rays[i]);
+                        let (got, want, ray) = (hits[i], want[i], rays[i]);
+                        if packets == Packets::Off || got.prim == want.prim {
+                            prop_assert_eq!(bits(&got), bits(&want), "{:?} ray {} {:?}", config, i, ray);
+                        } else {
+                            prop_assert_eq!(got.t.to_bits(), want.t.to_bits(), "{:?} ray {} {:?}", config, i, ray);
+                            let own = scene.intersect_prim::<$contents>(got.prim, &ray).map(|h| h.0);
+                            prop_assert_eq!(own, Some(want.t), "ray {}: prim {} is not a tie", i, got.prim);
+                        }
                     }
                     let mut occ = vec![true; n];
-                    stream::occluded_interleaved(&scene, $mode, in_flight, &rays, &mut occ).unwrap();
-                    prop_assert_eq!(&occ, &want_occ, "interleaved occlusion {:?}", in_flight);
-                    for packets in [Packets::Off, Packets::Four, Packets::Eight] {
-                        let config = Config { mode: $mode, packets, in_flight, coherence };
-                        let mut scratch = vec![u64::MAX; stream::scratch_words(n)];
-                        let mut hits = vec![Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 }; n];
-                        stream::intersect(&scene, &config, &rays, &mut hits, &mut scratch).unwrap();
-                        for i in 0..n {
-                            let (got, want, ray) = (hits[i], want[i], rays[i]);
-                            if packets == Packets::Off || got.prim == want.prim {
-                                prop_assert_eq!(bits(&got), bits(&want), "{:?} ray {} {:?}", config, i, ray);
-                            } else {
-                                prop_assert_eq!(got.t.to_bits(), want.t.to_bits(), "{:?} ray {} {:?}", config, i, ray);
-                                let own = scene.intersect_prim::<$contents>(got.prim, &ray).map(|h| h.0);
-                                prop_assert_eq!(own, Some(want.t), "ray {}: prim {} is not a tie", i, got.prim);
-                            }
-                        }
-                        let mut occ = vec![true; n];
-                        stream::occluded(&scene, &config, &rays, &mut occ, &mut scratch).unwrap();
-                        prop_assert_eq!(&occ, &want_occ, "stream occlusion {:?}", config);
-                    }
+                    stream::occluded(&scene, &config, &rays, &mut occ, &mut scratch).unwrap();
+                    prop_assert_eq!(&occ, &want_occ, "stream occlusion {:?}", config);
                 }
             }
         }
@@ -112,8 +110,9 @@ fn short_slices_are_errors() {
             answers: 4
         })
     );
+    let mut occluded = vec![false; 4];
     assert_eq!(
-        stream::intersect_interleaved(&scene, Mode::Fast, InFlight::Eight, &rays, &mut hits),
+        stream::occluded(&scene, &config, &rays, &mut occluded, &mut scratch),
         Err(StreamError::Length {
             rays: 5,
             answers: 4

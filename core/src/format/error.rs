@@ -11,6 +11,10 @@ pub enum FormatError {
     UnsupportedVersion(u32),
     /// CONTENTS has bits this version does not define, or disagrees with the counts/offsets.
     BadContents,
+    /// CONTENTS has the bit of the cache-line blocks section (formats 7 to 11), retired in format
+    /// 12 because the wide nodes walk single rays faster: rebuild the file with `kdray build`
+    /// (`--layout wide`, the default).
+    BlocksRetired,
     /// The scene stores triangle groups, and this build of the core was compiled without them
     /// (its `groups` feature): rebuild the tree with `kdray build --leaves list`.
     GroupsLeftOut,
@@ -91,20 +95,6 @@ pub enum FormatError {
     BadInputId {
         triangle: u32,
     },
-    /// A block's axes word or an unused slot or reference breaks the layout
-    /// ([`crate::traverse::blocked`]), or a child block's root is not an interior node.
-    BadBlockFlags {
-        block: u32,
-    },
-    /// A block's reference is out of range, points back to an earlier block, enters a block out
-    /// of turn (shared or skipped), or names another leaf node than the one at its place.
-    BadBlockRef {
-        block: u32,
-    },
-    /// The blocked tree differs from the node tree (split, axis, leaf or shape).
-    BlockMismatch {
-        block: u32,
-    },
 }
 
 impl core::fmt::Display for FormatError {
@@ -119,6 +109,11 @@ impl core::fmt::Display for FormatError {
                 )
             }
             Self::BadContents => write!(f, "contents bits disagree with the sections"),
+            Self::BlocksRetired => write!(
+                f,
+                "the tree carries a cache-line blocks section (`--layout blocked`), retired in \
+                 format 12: rebuild it with `kdray build` (`--layout wide`, the default)"
+            ),
             Self::GroupsLeftOut => write!(
                 f,
                 "the tree stores triangle groups, which this build leaves out (kdray-core's \
@@ -195,22 +190,6 @@ impl core::fmt::Display for FormatError {
             }
             Self::BadInputId { triangle } => {
                 write!(f, "triangle {triangle}: input id out of range")
-            }
-            Self::BadBlockFlags { block } => {
-                write!(
-                    f,
-                    "block {block}: axes or unused words break the block layout"
-                )
-            }
-            Self::BadBlockRef { block } => write!(
-                f,
-                "block {block}: reference out of range, backwards or out of order"
-            ),
-            Self::BlockMismatch { block } => {
-                write!(
-                    f,
-                    "block {block}: the blocked tree differs from the node tree"
-                )
             }
         }
     }

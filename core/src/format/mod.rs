@@ -4,8 +4,8 @@
 //! # Header (word index: meaning)
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
-//!  1  VERSION         11 (10 cut wide nodes three levels down, not greedily; 9 had no wide
-//!                     section; 8 had no groups section; 7 stored `+inf` as the threshold of a
+//!  1  VERSION         12 (11 could carry a blocks section, retired since; 10 cut wide nodes
+//!                     three levels down, not greedily; 9 had no wide section; 8 had no groups section; 7 stored `+inf` as the threshold of a
 //!                     triangle whose `|e1 × e2|²` overflows f32, so fast mode never hit it; 6 had
 //!                     no blocks section, 5 stored edges, not vertices, 4 had no checksum: files
 //!                     written before are refused, rebuild them)
@@ -27,8 +27,7 @@
 //! 22  BUILD_MS        build time in milliseconds (f32 bits): information only, not validated
 //! 23  INPUT_IDS_OFFSET … of the triangles' input indices (0 when absent)
 //! 24..26 CHECKSUM     [`checksum`] of all words, low word first (see "Corruption" below)
-//! 26  BLOCK_COUNT     blocks of the blocked tree (0 when absent)
-//! 27  BLOCKS_OFFSET   … of the blocks section (0 when absent; a multiple of 16 words)
+//! 26..28 UNUSED      0 (formats 7 to 11: the count and offset of the blocks section, retired)
 //! 28  GROUP_COUNT     triangle groups (0 when absent)
 //! 29  GROUPS_OFFSET   … of the groups section (0 when absent)
 //! 30  WIDE_COUNT      wide nodes (0 when absent)
@@ -69,17 +68,10 @@
 //!   about 9 % faster). Normals, texture coordinates and materials follow storage order.
 //!   Validation checks each id is below TRI_COUNT, not that they are a permutation (that would
 //!   need memory): a repeated id can only mislabel a hit, never make an access fail.
-//! - **Blocks** (CONTENTS bit `BLOCKED`, version 7): the same tree again, cut into 64-byte
-//!   blocks of three levels (7 planes, their axes in one word, 8 references to child blocks or
-//!   leaves), so that the single-ray walk loads one cache line per three levels
-//!   ([`crate::traverse::blocked`], where the encoding is documented). Leaves stay in the node
-//!   section (a reference names the leaf node, or holds a one-primitive leaf's id, or marks an
-//!   empty leaf). Validation requires the blocked tree to be the node tree exactly, so both walks
-//!   return the same hits. When present (and the core's `blocked` feature is on),
-//!   [`Scene::intersect`], [`Scene::occluded`] and the stream's interleaved single rays
-//!   ([`crate::traverse::stream`]) walk it; the packet walks use the nodes. The section starts on a
-//!   multiple of 16 words, so the blocks are cache lines when the words are 64-byte aligned (the
-//!   host aligns them, `kdray::flat::Aligned`).
+//! - **Blocks** (formats 7 to 11, CONTENTS bit 6, [`contents::RETIRED_BLOCKS`]): the tree cut into
+//!   64-byte blocks of three levels, walked by single rays. Retired in format 12: the wide nodes
+//!   below take fewer steps and instructions per ray (docs/BENCHMARKS.md, "Retired: blocks and
+//!   interleaved walks"). A file with the bit is refused with [`FormatError::BlocksRetired`].
 //! - **Groups** (CONTENTS bit `GROUPS`, version 9; only in a scene of triangles alone): a leaf's
 //!   triangles stored inline, four to a 44-word group in struct-of-arrays lanes
 //!   ([`crate::group`], where the layout is documented), so that the single-ray walk tests one ray
@@ -97,8 +89,10 @@
 //!   in the node section (a reference names the leaf node). Validation recomputes every node's
 //!   children and orders from the node section and checks every box against its cell and its
 //!   child's contents, so the wide walk returns the closest hit as the node walk does. When
-//!   present (and the core's `wide` feature is on), [`Scene::intersect`] and [`Scene::occluded`]
-//!   walk it; the packet walks and the stream's interleaved walk use the nodes.
+//!   present (and the core's `wide` feature is on), [`Scene::intersect`], [`Scene::occluded`]
+//!   and the stream's single rays walk it; the packet walks use the nodes. The section starts on
+//!   a multiple of [`LINE_WORDS`], so its nodes are whole cache lines when the words are 64-byte
+//!   aligned (the host aligns them, `kdray::flat::Aligned`).
 //!
 //! # Cost of validation
 //! [`Scene::from_words`] takes time linear in the number of words `W`, whatever they say, and
@@ -107,9 +101,8 @@
 //! tree walk visits each node once (the pre-order rule) and does O(1) work per node, because the
 //! index-list entries are checked once in one pass and a leaf only compares its range with where
 //! the previous leaf's ended (the tiling rule under **Indices**; a leaf's groups the same way,
-//! each group rebuilt from four triangle records and compared once); the blocks walk
-//! ([`crate::traverse::blocked::validate`]) takes one step per node and checks each block's layout
-//! once. In all about `c · W` word reads with a small constant `c` (the tests count them:
+//! each group rebuilt from four triangle records and compared once); the wide section's check
+//! ([`crate::traverse::wide::validate`]) recomputes each wide node's cut once. In all about `c · W` word reads with a small constant `c` (the tests count them:
 //! `tests/tests/format.rs`). Before the tiling rule, 131,072 leaves naming one 500,000-entry range
 //! (a 4 MB file) cost 6.5·10¹⁰ checks; now it is refused at its second leaf with
 //! [`FormatError::IndexOrder`]. The same rule bounds a walk: the primitives one ray tests number at
@@ -137,7 +130,6 @@
 use crate::group::{self, Group};
 use crate::node::{LEAF, Node};
 use crate::sphere::Sphere;
-use crate::traverse::blocked::Block;
 use crate::traverse::wide::WideNode;
 use crate::triangle::Triangle;
 use glam::Vec3;
@@ -145,11 +137,13 @@ use glam::Vec3;
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 11;
+pub const VERSION: u32 = 12;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).
 pub const SECTION_ALIGN: usize = 8;
+/// Words in a 64-byte cache line: the wide section starts on a multiple of this.
+pub const LINE_WORDS: usize = 16;
 /// The deepest tree the fixed traversal stacks accept. pbrt-v3's depth rule
 /// `8 + 1.3·log2(N)` reaches 48 only at N ≈ 2³¹ primitives.
 pub const MAX_DEPTH: usize = 64;
@@ -177,8 +171,8 @@ pub mod header {
     pub const INPUT_IDS_OFFSET: usize = 23;
     /// Two words: the [`super::checksum`], low word first.
     pub const CHECKSUM: usize = 24;
-    pub const BLOCK_COUNT: usize = 26;
-    pub const BLOCKS_OFFSET: usize = 27;
+    /// Two words, zero: formats 7 to 11 kept the retired blocks section's count and offset here.
+    pub const UNUSED: core::ops::Range<usize> = 26..28;
     pub const GROUP_COUNT: usize = 28;
     pub const GROUPS_OFFSET: usize = 29;
     pub const WIDE_COUNT: usize = 30;
@@ -196,16 +190,16 @@ pub mod contents {
     pub const MATERIALS: u32 = 1 << 4;
     /// Triangles are stored in another order than the input's (the input-ids section).
     pub const INPUT_IDS: u32 = 1 << 5;
-    /// The tree is also stored cache-line-blocked (the blocks section,
-    /// [`crate::traverse::blocked`]).
-    pub const BLOCKED: u32 = 1 << 6;
+    /// Formats 7 to 11: the tree was also stored in cache-line blocks. Retired in format 12; a
+    /// file with this bit is refused ([`super::FormatError::BlocksRetired`]).
+    pub const RETIRED_BLOCKS: u32 = 1 << 6;
     /// Leaves hold their triangles in groups of four (the groups section, [`crate::group`]).
     pub const GROUPS: u32 = 1 << 7;
     /// The tree is also stored as wide nodes (the wide section, [`crate::traverse::wide`]).
     pub const WIDE: u32 = 1 << 8;
     /// Every bit this version defines.
     pub const ALL: u32 =
-        TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS | INPUT_IDS | BLOCKED | GROUPS | WIDE;
+        TRIANGLES | SPHERES | NORMALS | UVS | MATERIALS | INPUT_IDS | GROUPS | WIDE;
 }
 
 /// Words per element of each section.
@@ -215,7 +209,6 @@ pub mod stride {
     pub const SPHERE: usize = 4;
     pub const NORMALS: usize = 9;
     pub const UVS: usize = 6;
-    pub const BLOCK: usize = crate::traverse::blocked::BLOCK_WORDS;
     pub const GROUP: usize = crate::group::GROUP_WORDS;
     pub const WIDE: usize = crate::traverse::wide::NODE_WORDS;
 }
@@ -242,7 +235,6 @@ pub struct Scene<'a> {
     uvs: &'a [f32],
     materials: &'a [u32],
     input_ids: &'a [u32],
-    blocks: &'a [Block],
     groups: &'a [Group],
     wide: &'a [WideNode],
 }
@@ -254,33 +246,17 @@ impl<'a> Scene<'a> {
         self.contents
     }
 
-    /// The blocks section ([`crate::traverse::blocked`]); empty when the file has none.
-    #[inline(always)]
-    pub fn blocks(&self) -> &'a [Block] {
-        self.blocks
-    }
-
     /// The wide section ([`crate::traverse::wide`]); empty when the file has none.
     #[inline(always)]
     pub fn wide_nodes(&self) -> &'a [WideNode] {
         self.wide
     }
 
-    /// This scene with its wide section set aside: the single-ray queries walk the nodes (or
-    /// the blocks), to compare the walks on one file.
+    /// This scene with its wide section set aside: the single-ray queries walk the nodes, to
+    /// compare the walks on one file.
     #[inline]
     pub fn without_wide(&self) -> Self {
         Self { wide: &[], ..*self }
-    }
-
-    /// This scene with its blocks section set aside: the single-ray queries walk the nodes (to
-    /// compare the two walks on one file; the CONTENTS bits are unchanged).
-    #[inline]
-    pub fn without_blocks(&self) -> Self {
-        Self {
-            blocks: &[],
-            ..*self
-        }
     }
 
     /// The input index of primitive `prim` (what a hit should report): its position in the
@@ -385,55 +361,6 @@ impl<'a> Scene<'a> {
     #[inline(always)]
     pub fn vertices(&self, i: u32) -> [Vec3; 3] {
         stored_vertices(&self.tris[i as usize])
-    }
-
-    /// Asks the cache for node `i` ahead of its use ([`crate::prefetch`]); only a hint.
-    #[inline(always)]
-    pub(crate) fn prefetch_node(&self, i: u32) {
-        if let Some(n) = self.nodes.get(i as usize) {
-            crate::prefetch::t0(n);
-        }
-    }
-
-    /// Asks the cache for what a leaf's test reads first: the triangle of a one-primitive leaf,
-    /// or the first word of a longer leaf's index list (whose triangles are known only once it has
-    /// arrived, see [`Scene::prefetch_prims`]). Returns whether the leaf has an index list.
-    #[inline(always)]
-    pub(crate) fn prefetch_leaf(&self, node: &Node) -> bool {
-        match node.prim_count() {
-            0 => false,
-            1 => {
-                self.prefetch_prims(&[node.payload()]);
-                false
-            }
-            _ if self.has_groups() => {
-                // The first group's three lines (the triangles themselves: no list to wait for).
-                if let Some(g) = self.groups.get(node.payload() as usize) {
-                    for line in g.chunks(16) {
-                        crate::prefetch::t0(&line[0]);
-                    }
-                }
-                false
-            }
-            _ => {
-                if let Some(w) = self.indices.get(node.payload() as usize) {
-                    crate::prefetch::t0(w);
-                }
-                true
-            }
-        }
-    }
-
-    /// Asks the cache for the triangle records of `prims` (a 40-byte record may straddle two
-    /// lines: both ends are asked for). Spheres are not prefetched.
-    #[inline(always)]
-    pub(crate) fn prefetch_prims(&self, prims: &[u32]) {
-        for &p in prims {
-            if let Some(t) = self.tris.get(p as usize) {
-                crate::prefetch::t0(&t[0]);
-                crate::prefetch::t0(&t[stride::TRIANGLE - 1]);
-            }
-        }
     }
 
     /// The geometric normal of primitive `prim` at a point `p` on it, not normalized: `e1 × e2`

@@ -1,8 +1,8 @@
 //! [`Scene::from_words`]: the one validation pass every later access relies on.
 
 use super::{
-    FormatError, HEADER_WORDS, MAGIC, MAX_DEPTH, SECTION_ALIGN, Scene, VERSION, checksum, contents,
-    header, stored_triangle, stored_vertices, stride,
+    FormatError, HEADER_WORDS, LINE_WORDS, MAGIC, MAX_DEPTH, SECTION_ALIGN, Scene, VERSION,
+    checksum, contents, header, stored_triangle, stored_vertices, stride,
 };
 use crate::group;
 use crate::node::Node;
@@ -45,11 +45,15 @@ impl<'a> Scene<'a> {
         }
         if words[header::RESERVED..HEADER_WORDS]
             .iter()
+            .chain(&words[header::UNUSED])
             .any(|&w| w != 0)
         {
             return Err(FormatError::ReservedNotZero);
         }
         let contents = h(header::CONTENTS);
+        if contents & contents::RETIRED_BLOCKS != 0 {
+            return Err(FormatError::BlocksRetired);
+        }
         let (n_nodes, n_tris, n_spheres, n_indices) = (
             h(header::NODE_COUNT) as usize,
             h(header::TRI_COUNT) as usize,
@@ -118,12 +122,6 @@ impl<'a> Scene<'a> {
                 bit: contents::INPUT_IDS,
             },
             SectionSpec {
-                offset_word: header::BLOCKS_OFFSET,
-                count: h(header::BLOCK_COUNT) as usize,
-                stride: stride::BLOCK,
-                bit: contents::BLOCKED,
-            },
-            SectionSpec {
                 offset_word: header::GROUPS_OFFSET,
                 count: h(header::GROUP_COUNT) as usize,
                 stride: stride::GROUP,
@@ -139,9 +137,6 @@ impl<'a> Scene<'a> {
         if contents & contents::WIDE == 0 && h(header::WIDE_COUNT) != 0 {
             return Err(FormatError::BadContents);
         }
-        if contents & contents::BLOCKED == 0 && h(header::BLOCK_COUNT) != 0 {
-            return Err(FormatError::BadContents);
-        }
         // Groups hold triangles only, and replace the index list.
         let grouped = contents & contents::GROUPS != 0;
         if (!grouped && h(header::GROUP_COUNT) != 0)
@@ -153,7 +148,7 @@ impl<'a> Scene<'a> {
             return Err(FormatError::GroupsLeftOut);
         }
         // (start, end) of each section, (0, 0) when absent.
-        let mut ranges = [(0usize, 0usize); 11];
+        let mut ranges = [(0usize, 0usize); 10];
         for (range, spec) in ranges.iter_mut().zip(specs.iter()) {
             let offset = h(spec.offset_word) as usize;
             let present = if spec.bit == 0 {
@@ -172,9 +167,9 @@ impl<'a> Scene<'a> {
                 .checked_mul(spec.stride)
                 .ok_or(FormatError::CountOverflow)?;
             let end = offset.checked_add(len).ok_or(FormatError::CountOverflow)?;
-            // Blocks and wide nodes start on a cache line (16 words), the others on 8 words.
-            let align = if spec.bit == contents::BLOCKED || spec.bit == contents::WIDE {
-                stride::BLOCK
+            // Wide nodes start on a cache line (16 words), the others on 8 words.
+            let align = if spec.bit == contents::WIDE {
+                LINE_WORDS
             } else {
                 SECTION_ALIGN
             };
@@ -183,7 +178,7 @@ impl<'a> Scene<'a> {
             }
             *range = (offset, end);
         }
-        // Pairwise overlap test on at most 11 sections: no sort, no allocation.
+        // Pairwise overlap test on at most 10 sections: no sort, no allocation.
         for (i, a) in ranges.iter().enumerate() {
             for b in &ranges[i + 1..] {
                 if a.1 > a.0 && b.1 > b.0 && a.0 < b.1 && b.0 < a.1 {
@@ -215,9 +210,8 @@ impl<'a> Scene<'a> {
             uvs: floats_of(5),
             materials: words_of(6),
             input_ids: words_of(7),
-            blocks: words_of(8).as_chunks().0,
-            groups: words_of(9).as_chunks().0,
-            wide: words_of(10).as_chunks().0,
+            groups: words_of(8).as_chunks().0,
+            wide: words_of(9).as_chunks().0,
         };
         let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
         let triangles_ok = scene.tris.iter().all(|t| {
@@ -246,9 +240,6 @@ impl<'a> Scene<'a> {
         let depth = scene.validate_tree(n_prims)?;
         if depth != scene.depth {
             return Err(FormatError::BadDepth);
-        }
-        if contents & contents::BLOCKED != 0 {
-            crate::traverse::blocked::validate::validate(&scene, scene.blocks)?;
         }
         if contents & contents::WIDE != 0 {
             crate::traverse::wide::validate::validate(&scene, scene.wide)?;

@@ -2,26 +2,24 @@
 //!
 //! # The walks, and when to use which
 //! - [`single`]: one ray, closest hit ([`Scene::intersect`]) or any hit ([`Scene::occluded`]).
-//!   The default, and the best for incoherent rays (bounces, shadow rays towards many lights).
-//! - [`steps`]: the same walk as resumable steps over an explicit state ([`steps::Stepper`],
-//!   [`steps::Query`]), for code that drives a walk itself: a custom query at the leaves, counting
-//!   steps, or many rays' walks interleaved. [`single`] and the stream run these steps.
+//!   The default, and the best for incoherent rays (bounces, shadow rays towards many lights):
+//!   over the wide nodes when the scene has them, else over the binary nodes.
+//! - [`steps`]: the binary-node walk as resumable steps over an explicit state
+//!   ([`steps::Stepper`], [`steps::Query`]), for code that drives a walk itself: a custom query
+//!   at the leaves, counting steps. [`single`] runs these steps on a scene without wide nodes.
 //! - [`packet`]: 4 or 8 rays at once ([`Scene::intersect_packet`], over [`crate::simd::Lanes`]),
 //!   Wald's coherent packet walk; for rays that share an origin region and a direction octant,
 //!   such as a camera's tiles.
-//! - [`blocked`]: the cache-line-blocked copy of the tree (format v7's blocks section): its
-//!   encoding, its validation and its walk, a [`steps::Stepper`] that [`single`] and the stream
-//!   pick on their own when the scene has blocks and the `blocked` feature is on.
 //! - [`wide`]: the wide nodes (format v10's wide section): eight children a node, each with a
 //!   tight box, tested in one 8-wide slab test; [`single`] walks them on its own when the scene
 //!   has them and the `wide` feature is on.
 //! - [`stream`]: many rays in one call, answers in input order: coherent runs as packets, the rest
-//!   sorted, and what is still incoherent as interleaved single-ray walks whose memory loads
-//!   overlap; for a renderer's rounds of rays.
+//!   sorted, and what is still incoherent as single rays ([`single`]'s walk); for a renderer's
+//!   rounds of rays.
 //!
-//! Every walk answers as [`single`] does: the interleaved and the block walks bit for bit, ties
-//! included, the packet walk with the same `t` bits (where two primitives tie at exactly that `t`
-//! it may report either).
+//! Every walk answers as the binary-node walk does: [`steps`] is that walk, the stream's single
+//! rays are [`single`]'s, bit for bit, ties included; the wide walk and the packet walk give the
+//! same `t` bits (where two primitives tie at exactly that `t`, either may be reported).
 //!
 //! Shared by the walks, here: the [`Contents`] a walk is monomorphized for and the run-time
 //! [`Mode`]; the entry into the scene box ([`clip_to_box`]); the slack on a node's entry distance
@@ -51,7 +49,6 @@
 //! when the closest candidate lies before its entry; so the reported hit is always the closest
 //! (the argument of pbrt-v3's `ray.tMax < tMin` test, which stops the whole walk instead).
 
-pub mod blocked;
 pub mod packet;
 pub mod single;
 pub mod steps;

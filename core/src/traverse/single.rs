@@ -1,8 +1,9 @@
 //! The one-ray walk: closest hit ([`Scene::intersect`]) and any hit ([`Scene::occluded`]) for one
 //! ray, in fast or watertight mode, chosen at run time (`_in`) or at compile time (`_with`). It
-//! runs the resumable steps of [`super::steps`] to the end, with no pause between them, over the
-//! blocks when the scene has them and the core is built with the `blocked` feature, else over the
-//! nodes (the same decisions and hits). The rules the walk follows are in [`super`]'s module doc.
+//! walks the wide nodes when the scene has them and the core is built with the `wide` feature
+//! ([`super::wide::walk`]: the same closest hits), else runs the resumable steps of
+//! [`super::steps`] over the binary nodes to the end. The rules the walks follow are in
+//! [`super`]'s module doc.
 
 use super::steps::{Closest, Occlusion, Progress, Query, Stepper, shear_for};
 use super::{Contents, Mode, by_contents};
@@ -56,18 +57,14 @@ impl Scene<'_> {
         query.found()
     }
 
-    /// Walks `ray` to the end for `query`, one step after another (the one-ray walk); over the
-    /// blocks when the scene has them and the core is built with the `blocked` feature
-    /// ([`super::blocked::walk`]: the same decisions and hits).
+    /// Walks `ray` to the end for `query` (the one-ray walk): over the wide nodes when the scene
+    /// has them and the core is built with the `wide` feature, else over the binary nodes, one
+    /// step after another.
     #[inline(always)]
     pub(crate) fn walk<C: Contents, Q: Query>(&self, ray: &Ray, query: &mut Q) {
         #[cfg(feature = "wide")]
         if !self.wide_nodes().is_empty() {
             return super::wide::walk::walk::<C, Q>(self, self.wide_nodes(), ray, query);
-        }
-        #[cfg(feature = "blocked")]
-        if let Some(blocks) = super::blocked::walk::Blocks::new(self) {
-            return walk_to_end::<_, C, Q>(&blocks, ray, query);
         }
         walk_to_end::<_, C, Q>(self, ray, query)
     }
@@ -78,6 +75,6 @@ impl Scene<'_> {
 fn walk_to_end<W: Stepper, C: Contents, Q: Query>(layout: &W, ray: &Ray, query: &mut Q) {
     let mut state = W::empty_state();
     if layout.begin::<C>(ray, &mut state) {
-        while layout.step::<C, Q, false>(&mut state, query) != Progress::Done {}
+        while layout.step::<C, Q>(&mut state, query) != Progress::Done {}
     }
 }

@@ -1,23 +1,16 @@
-//! The single-ray kd-tree walk as resumable steps over an explicit state, so that one function
-//! serves both the one-ray walk ([`super::single`]: [`Scene::intersect`], [`Scene::occluded`]) and
-//! the interleaved walk that keeps many rays in flight ([`super::stream`], `interleave.rs`). The
-//! two therefore do the same arithmetic and visit the same leaves in the same order, ray by ray:
-//! their hits are identical by construction, ties between primitives included.
+//! The single-ray walk over the binary nodes as resumable steps over an explicit state: the
+//! one-ray walk ([`super::single`]: [`Scene::intersect`], [`Scene::occluded`], when the scene has
+//! no wide nodes) runs them to the end, and code that drives a walk itself — counting its steps
+//! (`kdray trace --counts`), a custom query at the leaves (the host's crossing counts) — runs the
+//! same steps, so it visits the same leaves in the same order and finds the same hits, ties
+//! between primitives included.
 //!
 //! A step is one node: an interior node's plane decision, or a leaf's tests, then the next node
-//! (a child or a pending node from the stack). With `HIDE` (the interleaved walk) a step that pops
-//! a pending node ends by asking the cache for it ([`crate::prefetch`]), and a leaf takes up to
-//! three steps: one that asks for its index list (or its one triangle), one that asks for the
-//! triangles the list names, and one that tests them; descending steps report
-//! [`Progress::Near`] and the interleaved walk takes them at once. Between two steps of one ray the walk runs
-//! steps of other rays, which hide the loads' latency — the idea of Embree's prefetching wide
-//! BVH walk and of Aila & Karras's persistent threads, applied to rays instead of lanes
-//! (differs from both: every ray keeps its own exact scalar order). Without `HIDE` the step
-//! compiles to the plain walk (the phases and prefetches are constants that fold away).
+//! (a child or a pending node from the stack).
 //!
-//! Another node layout supplies its own walk by implementing [`Stepper`] (the blocks section's is
-//! [`super::blocked::walk::Blocks`]); the one-ray walk and the interleaved driver are generic over
-//! it.
+//! (Until format 12 a step could also end by prefetching the node or leaf data its ray read
+//! next, for a walk that kept 4 to 16 rays in flight; the wide walk made it pointless:
+//! docs/BENCHMARKS.md, "Retired: blocks and interleaved walks".)
 
 use super::{Contents, entry_interval, entry_with_slack, widen};
 use crate::format::{LeafPrims, MAX_DEPTH, Scene};
@@ -144,12 +137,8 @@ impl Query for Occlusion {
 pub enum Progress {
     /// The walk has ended.
     Done,
-    /// The next step reads data that is probably in cache already (for the kd-tree: a child
-    /// after a descent, usually the next node in memory): an interleaved walk takes it at once.
-    Near,
-    /// The next step reads data that may be far away; with `HIDE` it has been asked for, and an
-    /// interleaved walk turns to other rays meanwhile.
-    Far,
+    /// The walk goes on at the next step.
+    More,
 }
 
 /// A node layout's single-ray walk, as resumable steps.
@@ -161,17 +150,12 @@ pub trait Stepper {
     /// Starts the walk of `ray` in `state`; false when there is nothing to walk (a non-finite ray,
     /// or one missing the scene's box), and the query's answer is its initial one.
     fn begin<C: Contents>(&self, ray: &Ray, state: &mut Self::State) -> bool;
-    /// Runs one step. With `HIDE`, a step that ends [`Progress::Far`] asks the cache for what the
-    /// next step of this ray will read.
-    fn step<C: Contents, Q: Query, const HIDE: bool>(
-        &self,
-        state: &mut Self::State,
-        query: &mut Q,
-    ) -> Progress;
+    /// Runs one step.
+    fn step<C: Contents, Q: Query>(&self, state: &mut Self::State, query: &mut Q) -> Progress;
 }
 
 /// The kd-tree walk's state for one ray: the ray's origin and reciprocal direction, the node and
-/// interval it is at, the closest candidate so far, the leaf phase, and its pending far children.
+/// interval it is at, the closest candidate so far, and its pending far children.
 #[derive(Clone, Debug)]
 pub struct WalkState {
     origin: Vec3,
@@ -180,9 +164,6 @@ pub struct WalkState {
     tmin: f32,
     tmax: f32,
     best_t: f32,
-    /// With `HIDE`, at a leaf: 0 before anything was asked for, 1 once its index list was,
-    /// 2 once its triangles were (tested at the next step).
-    phase: u8,
     stack: heapless::Vec<StackItem, MAX_DEPTH>,
 }
 
@@ -195,7 +176,6 @@ impl WalkState {
         tmin: 0.0,
         tmax: 0.0,
         best_t: 0.0,
-        phase: 0,
         stack: heapless::Vec::new(),
     };
 
@@ -230,7 +210,6 @@ impl Stepper for Scene<'_> {
         s.origin = ray.origin;
         s.inv_dir = ray.dir.recip();
         (s.index, s.tmin, s.tmax, s.best_t) = (0, tmin, tmax, ray.tmax);
-        s.phase = 0;
         s.stack.clear();
         true
     }
@@ -246,11 +225,7 @@ impl Stepper for Scene<'_> {
     /// crosses at one point can cross over, and the cell between them is dropped
     /// (docs/ROBUSTNESS.md counts the rays this loses).
     #[inline(always)]
-    fn step<C: Contents, Q: Query, const HIDE: bool>(
-        &self,
-        s: &mut WalkState,
-        q: &mut Q,
-    ) -> Progress {
+    fn step<C: Contents, Q: Query>(&self, s: &mut WalkState, q: &mut Q) -> Progress {
         let node = self.node(s.index);
         // A node entered beyond the closest hit so far is skipped, not a reason to stop: a ray
         // lying in a split plane pushes both children with the same interval, so the stack is not
@@ -258,24 +233,13 @@ impl Stepper for Scene<'_> {
         let beyond = s.best_t < entry_with_slack(s.tmin);
         if beyond || node.is_leaf() {
             if !beyond {
-                let prims = self.leaf_prims(&node);
-                if HIDE && s.phase == 0 && !prims.is_empty() {
-                    s.phase = if self.prefetch_leaf(&node) { 1 } else { 2 };
-                    return Progress::Far;
-                }
-                if HIDE && s.phase == 1 {
-                    self.prefetch_prims(prims.listed());
-                    s.phase = 2;
-                    return Progress::Far;
-                }
-                s.phase = 0;
-                let (t, stop) = q.leaf::<C>(self, prims);
+                let (t, stop) = q.leaf::<C>(self, self.leaf_prims(&node));
                 s.best_t = t;
                 if stop {
                     return Progress::Done;
                 }
             }
-            return self.next_pending::<HIDE>(s);
+            return next_pending(s);
         }
         let axis = node.axis();
         let t_plane = (node.split() - s.origin[axis]) * s.inv_dir[axis];
@@ -319,29 +283,23 @@ impl Stepper for Scene<'_> {
                 s.tmin = s.tmin.max(far_start);
                 s.index = far;
             }
-            (false, false) => return self.next_pending::<HIDE>(s),
+            (false, false) => return next_pending(s),
         }
-        // Descending continues at once: the below child follows its parent in memory, and on
-        // the dragon's diffuse rays switching rays at every jump to the above child (with a
-        // prefetch of it) ran slower than switching only at pops and leaves (docs/BENCHMARKS.md,
-        // "Ray streams").
-        Progress::Near
+        Progress::More
+    }
+}
+
+/// Pops the next pending node, or ends the walk.
+#[inline(always)]
+fn next_pending(s: &mut WalkState) -> Progress {
+    if s.pop() {
+        Progress::More
+    } else {
+        Progress::Done
     }
 }
 
 impl Scene<'_> {
-    /// Pops the next pending node (asking the cache for it with `HIDE`), or ends the walk.
-    #[inline(always)]
-    fn next_pending<const HIDE: bool>(&self, s: &mut WalkState) -> Progress {
-        if !s.pop() {
-            return Progress::Done;
-        }
-        if HIDE {
-            self.prefetch_node(s.index);
-        }
-        Progress::Far
-    }
-
     /// Tests one primitive against `ray` given the ray's [`Shear`] (unused unless watertight).
     #[inline(always)]
     pub(crate) fn intersect_prim_sheared<C: Contents>(

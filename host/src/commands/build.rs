@@ -32,10 +32,10 @@ pub struct BuildArgs {
     pub serial_build: bool,
     /// How the tree is stored: `wide` (the default: the nodes and a copy collapsed into
     /// eight-wide nodes with tight boxes, which single rays walk eight cells a step; 2.5x faster
-    /// on the dragon's diffuse rays than `nodes`, docs/BENCHMARKS.md "Wide nodes"), `nodes` (8-byte
-    /// nodes only: the smallest file, what packets walk), or `blocked` (the nodes and a copy cut
-    /// into 64-byte blocks of three levels; format v7).
-    #[arg(long, value_enum, default_value_t = flat::Layout::Wide)]
+    /// on the dragon's diffuse rays than `nodes`, docs/BENCHMARKS.md "Wide nodes"), or `nodes`
+    /// (8-byte nodes only: the smallest file, what packets walk). (`blocked` was retired in
+    /// format 12: `wide` replaces it.)
+    #[arg(long, value_name = "nodes|wide", default_value = "wide", value_parser = parse_layout)]
     pub layout: flat::Layout,
     /// How a leaf holds its triangles: `list` (ids in an index list; any scene, and every target
     /// loads it: the firmware and the WASM page leave the group kernels out), or `groups`
@@ -97,6 +97,22 @@ impl BuildArgs {
 /// The seed written into render descriptions: `kdray render`'s default, so that a target renders
 /// what `kdray render SCENE.toml` does.
 pub const DESCRIPTION_SEED: u64 = 1;
+
+/// Parses `--layout`: `nodes` or `wide`; the retired `blocked` is a usage error that says what
+/// replaces it.
+fn parse_layout(s: &str) -> core::result::Result<flat::Layout, String> {
+    match s {
+        "nodes" => Ok(flat::Layout::Nodes),
+        "wide" => Ok(flat::Layout::Wide),
+        "blocked" => Err(
+            "the blocked layout was retired in format 12: use `--layout wide` (the \
+                          default), whose wide nodes walk single rays faster (docs/BENCHMARKS.md, \
+                          \"Retired: blocks and interleaved walks\")"
+                .to_string(),
+        ),
+        _ => Err(format!("the layout must be nodes or wide, got '{s}'")),
+    }
+}
 
 /// Parses an SAH cost: a finite number above 0 (a usage error otherwise).
 fn parse_cost(s: &str) -> core::result::Result<f64, String> {
@@ -290,8 +306,8 @@ pub fn info(file: &Path) -> Result<()> {
             contents::INPUT_IDS,
             "input-ids (triangles stored in leaf order)",
         ),
-        (contents::BLOCKED, "blocked"),
         (contents::GROUPS, "groups"),
+        (contents::WIDE, "wide"),
     ];
     let present: Vec<&str> = names
         .iter()
@@ -320,17 +336,13 @@ pub fn info(file: &Path) -> Result<()> {
     println!("bytes           {}", s.bytes);
     let node_bytes = scene.node_count() as usize * 8;
     let wide_bytes = scene.wide_nodes().len() * 256;
-    match scene.blocks().len() * 64 {
-        0 if wide_bytes > 0 => println!(
+    if wide_bytes > 0 {
+        println!(
             "layout          wide ({} wide nodes, {wide_bytes} bytes; {node_bytes} bytes of nodes)",
             scene.wide_nodes().len()
-        ),
-        0 => println!("layout          nodes ({node_bytes} bytes of nodes)"),
-        b => println!(
-            "layout          blocked ({} blocks, {b} bytes; {node_bytes} bytes of nodes, {:.3}x)",
-            scene.blocks().len(),
-            b as f64 / node_bytes as f64
-        ),
+        );
+    } else {
+        println!("layout          nodes ({node_bytes} bytes of nodes)");
     }
     let groups = words[kdray_core::format::header::GROUP_COUNT] as usize;
     if scene.has_groups() {

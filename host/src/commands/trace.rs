@@ -6,7 +6,7 @@ use kdray::error::{Error, Result};
 use kdray::{files, rays};
 use kdray_core::simd::{f32x4, f32x8};
 use kdray_core::traverse::Mode;
-use kdray_core::traverse::stream::{self, InFlight, Packets};
+use kdray_core::traverse::stream::{self, Packets};
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -34,16 +34,13 @@ pub struct TraceArgs {
     pub packet: u32,
     /// Trace through the core's ray-stream API (`kdray_core::traverse::stream`): coherent runs as
     /// packets of `--packet` rays (1: no packets), the rest sorted by direction octant, origin and
-    /// direction, its coherent runs as packets and the others as interleaved single rays. Hits are
-    /// the same; the time includes the sorting.
+    /// direction, its coherent runs as packets and the others as single rays (over the wide nodes
+    /// when the tree has them). Hits are the same; the time includes the sorting.
     #[arg(long)]
     pub stream: bool,
-    /// Single-ray walks in flight at once, interleaved so that their memory loads overlap: 1, 4,
-    /// 8 or 16 (default: 1, the plain walk, for `--packet 1`; 16 for `--stream`; see
-    /// docs/BENCHMARKS.md). Ignored by `--packet 4/8` without
-    /// `--stream`.
-    #[arg(long, value_parser = parse_in_flight)]
-    pub in_flight: Option<InFlight>,
+    /// Retired in format 12 (the interleaved single-ray walks): a usage error that says so.
+    #[arg(long, hide = true, value_parser = parse_in_flight)]
+    pub in_flight: Option<u32>,
     /// Worker threads (default: all cores; at most 16 per core).
     #[arg(long, value_parser = parse_threads)]
     pub threads: Option<usize>,
@@ -67,13 +64,11 @@ pub struct TraceArgs {
 /// Rays per parallel work item: large enough to amortize scheduling, small enough to balance.
 const CHUNK: usize = 4096;
 
-/// How `kdray trace` traces: packets of consecutive rays, single rays (one or several walks in
-/// flight), or the stream API.
+/// How `kdray trace` traces: packets of consecutive rays, single rays, or the stream API.
 #[derive(Clone, Copy, Debug)]
 struct Tracer {
     packet: u32,
     stream: bool,
-    in_flight: InFlight,
     mode: Mode,
 }
 
@@ -91,7 +86,6 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
                 8 => Packets::Eight,
                 _ => Packets::Off,
             },
-            in_flight: how.in_flight,
             ..stream::Config::default()
         };
         hits.par_chunks_mut(chunk)
@@ -109,9 +103,6 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
         .for_each(|(h, r)| match how.packet {
             4 => rays::trace_packets_in::<f32x4>(scene, mode, r, h),
             8 => rays::trace_packets_in::<f32x8>(scene, mode, r, h),
-            _ if how.in_flight != InFlight::One => {
-                let _ = stream::intersect_interleaved(scene, mode, how.in_flight, r, h);
-            }
             _ => rays::trace_scalar_in(scene, mode, r, h),
         });
 }
@@ -132,7 +123,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
     }
     hits.resize(rays.len(), Hit::MISS);
     let (words, build_ms) = load_scene_words(&args.input, &args.build, &[&args.out])?;
-    // Blocks on cache lines (see `flat::Aligned`).
+    // Wide nodes on cache lines (see `flat::Aligned`).
     let words = kdray::flat::Aligned::new(&words);
     let scene = Scene::from_words(&words).map_err(|e| Error::new(&args.input, e.to_string()))?;
     kdray::reach::check_rays(&args.rays, &scene, &rays)?;
@@ -145,11 +136,6 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
     let how = Tracer {
         packet: args.packet,
         stream: args.stream,
-        in_flight: args.in_flight.unwrap_or(if args.stream {
-            stream::Config::default().in_flight
-        } else {
-            InFlight::One
-        }),
         mode,
     };
     let mut best = f64::INFINITY;
@@ -170,7 +156,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         0.0
     };
     println!(
-        "{} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} in_flight={} layout={} leaves={}",
+        "{} trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} layout={} leaves={}",
         build_keys(build_ms, &scene),
         best * 1e3,
         rays.len(),
@@ -183,13 +169,10 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
             "fast"
         },
         u8::from(args.stream),
-        in_flight_count(how.in_flight),
-        if !scene.wide_nodes().is_empty() {
-            "wide"
-        } else if !scene.blocks().is_empty() {
-            "blocked"
-        } else {
+        if scene.wide_nodes().is_empty() {
             "nodes"
+        } else {
+            "wide"
         },
         if scene.has_groups() { "groups" } else { "list" },
     );
@@ -218,15 +201,15 @@ pub fn parse_packet(s: &str) -> core::result::Result<u32, String> {
     }
 }
 
-/// Parses `--in-flight`: the numbers of interleaved walks the core offers.
-pub fn parse_in_flight(s: &str) -> core::result::Result<InFlight, String> {
-    match s {
-        "1" => Ok(InFlight::One),
-        "4" => Ok(InFlight::Four),
-        "8" => Ok(InFlight::Eight),
-        "16" => Ok(InFlight::Sixteen),
-        _ => Err(format!("walks in flight must be 1, 4, 8 or 16, got '{s}'")),
-    }
+/// Parses the retired `--in-flight`: always a usage error that says what replaces it.
+pub fn parse_in_flight(_: &str) -> core::result::Result<u32, String> {
+    Err(
+        "--in-flight was retired in format 12 with the interleaved single-ray walks: \
+         single rays (`--packet 1`, and the rays `--stream` leaves out of packets) walk the \
+         wide nodes one after another (`kdray build --layout wide`, the default); drop the \
+         option (docs/BENCHMARKS.md, \"Retired: blocks and interleaved walks\")"
+            .to_string(),
+    )
 }
 
 /// The line's first keys: what the build took now — `build_ms=` and `prebuilt=0` for a tree built
@@ -238,16 +221,6 @@ fn build_keys(built_ms: Option<f64>, scene: &Scene) -> String {
             "build_ms=0.000 prebuilt=1 stored_build_ms={:.3}",
             scene.build_ms()
         ),
-    }
-}
-
-/// The number `in_flight` stands for.
-fn in_flight_count(in_flight: InFlight) -> u32 {
-    match in_flight {
-        InFlight::One => 1,
-        InFlight::Four => 4,
-        InFlight::Eight => 8,
-        InFlight::Sixteen => 16,
     }
 }
 
@@ -285,7 +258,6 @@ pub fn rays(input: &Path, out: &Path, kind: RayKind, size: (u32, u32), seed: u64
             let how = Tracer {
                 packet: 8,
                 stream: false,
-                in_flight: InFlight::One,
                 mode: Mode::Fast,
             };
             trace_all(&scene, &primary, &mut hits, how);

@@ -7,18 +7,21 @@
 //!    stay packets without paying for a sort;
 //! 2. sorts the other rays by octant, origin and direction ([`order`]), and traces the coherent
 //!    runs of that order as packets;
-//! 3. traces what is left as single rays, [`InFlight`] walks at once (more than one interleaved
-//!    so that their memory loads overlap, `stream/interleave.rs`).
+//! 3. traces what is left as single rays, one after another, by the one-ray walk (over the wide
+//!    nodes when the scene has them).
 //!
 //! Every answer equals the single-ray walk's ([`Scene::intersect_in`], [`Scene::occluded_in`]):
-//! the interleaved walk runs the same steps, and the packet walks match it lane by lane (the same
+//! the leftover rays run that very walk, and the packet walks match it lane by lane (the same
 //! `t` bits; where two primitives tie at exactly that `t`, the packet may report either, as the
 //! packet walks do everywhere). With [`Packets::Off`] the answers are the single-ray walk's
 //! bit for bit, ties included.
 //!
+//! (Until format 12 the leftover rays could walk the binary nodes 4 to 16 at a time, interleaved
+//! with prefetches to overlap their loads; the wide walk is faster one ray at a time, so that
+//! walk was retired: docs/BENCHMARKS.md, "Retired: blocks and interleaved walks".)
+//!
 //! Errors (slices of the wrong length, too little scratch) are returned, never a panic.
 
-pub(crate) mod interleave;
 pub mod order;
 mod trace;
 
@@ -57,23 +60,10 @@ impl core::fmt::Display for StreamError {
     }
 }
 
-/// How many single-ray walks are in flight at once.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum InFlight {
-    /// One: the plain walk, no prefetching.
-    One,
-    Four,
-    Eight,
-    /// The default: the fastest for the dragon's diffuse rays (docs/BENCHMARKS.md, "Ray
-    /// streams"), the rays a stream's single-ray path gets.
-    #[default]
-    Sixteen,
-}
-
 /// The packets a stream forms from coherent runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Packets {
-    /// None: every ray is a single ray (sorted, interleaved).
+    /// None: every ray is a single ray (sorted).
     Off,
     Four,
     Eight,
@@ -99,7 +89,6 @@ impl Default for Packets {
 pub struct Config {
     pub mode: Mode,
     pub packets: Packets,
-    pub in_flight: InFlight,
     pub coherence: Coherence,
 }
 
@@ -108,7 +97,6 @@ impl Default for Config {
         Self {
             mode: Mode::Fast,
             packets: Packets::default(),
-            in_flight: InFlight::default(),
             // Same octant, whatever the directions and origins within it: on the dragon's
             // diffuse rays every looser rule ran faster (docs/BENCHMARKS.md, "Ray streams"),
             // since a ray left out of a packet takes the slower single-ray path.
@@ -118,39 +106,6 @@ impl Default for Config {
             },
         }
     }
-}
-
-/// Closest hits of `rays` into `hits` (same length), `in_flight` walks at a time, in input order:
-/// the single-ray walk's hits, bit for bit.
-///
-/// # Errors
-/// [`StreamError::Length`] if `hits` is not as long as `rays`.
-pub fn intersect_interleaved(
-    scene: &Scene,
-    mode: Mode,
-    in_flight: InFlight,
-    rays: &[Ray],
-    hits: &mut [Hit],
-) -> Result<(), StreamError> {
-    check_length(rays, hits)?;
-    interleaved::<ClosestHits>(scene, mode, in_flight, rays, hits);
-    Ok(())
-}
-
-/// Occlusion of `rays` into `occluded` (same length), `in_flight` walks at a time.
-///
-/// # Errors
-/// [`StreamError::Length`] if `occluded` is not as long as `rays`.
-pub fn occluded_interleaved(
-    scene: &Scene,
-    mode: Mode,
-    in_flight: InFlight,
-    rays: &[Ray],
-    occluded: &mut [bool],
-) -> Result<(), StreamError> {
-    check_length(rays, occluded)?;
-    interleaved::<AnyHits>(scene, mode, in_flight, rays, occluded);
-    Ok(())
 }
 
 /// Closest hits of the stream `rays` into `hits` (same length, input order).
@@ -191,21 +146,6 @@ fn check_length<T>(rays: &[Ray], answers: &[T]) -> Result<(), StreamError> {
             answers: answers.len(),
         })
     }
-}
-
-fn interleaved<A: Answer>(
-    scene: &Scene,
-    mode: Mode,
-    in_flight: InFlight,
-    rays: &[Ray],
-    out: &mut [A::Out],
-) {
-    by_contents!(scene, mode, |C| match in_flight {
-        InFlight::One => trace::interleaved::<A, C, 1>(scene, rays, out),
-        InFlight::Four => trace::interleaved::<A, C, 4>(scene, rays, out),
-        InFlight::Eight => trace::interleaved::<A, C, 8>(scene, rays, out),
-        InFlight::Sixteen => trace::interleaved::<A, C, 16>(scene, rays, out),
-    })
 }
 
 fn run<A: Answer>(
@@ -265,21 +205,9 @@ fn run_with<A: Answer, C: Contents>(
     pairs: &mut [[u64; 2]],
 ) {
     let rule = &config.coherence;
-    macro_rules! go {
-        ($l:ty, $p:expr) => {
-            match config.in_flight {
-                InFlight::One => trace::stream::<A, C, $l, $p, 1>(scene, rays, out, pairs, rule),
-                InFlight::Four => trace::stream::<A, C, $l, $p, 4>(scene, rays, out, pairs, rule),
-                InFlight::Eight => trace::stream::<A, C, $l, $p, 8>(scene, rays, out, pairs, rule),
-                InFlight::Sixteen => {
-                    trace::stream::<A, C, $l, $p, 16>(scene, rays, out, pairs, rule)
-                }
-            }
-        };
-    }
     match config.packets {
-        Packets::Off => go!(f32x8, false),
-        Packets::Four => go!(f32x4, true),
-        Packets::Eight => go!(f32x8, true),
+        Packets::Off => trace::stream::<A, C, f32x8, false>(scene, rays, out, pairs, rule),
+        Packets::Four => trace::stream::<A, C, f32x4, true>(scene, rays, out, pairs, rule),
+        Packets::Eight => trace::stream::<A, C, f32x8, true>(scene, rays, out, pairs, rule),
     }
 }

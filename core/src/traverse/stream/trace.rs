@@ -1,9 +1,7 @@
 //! The stream's work, for either query: coherent runs of the input as packets, then the rest
-//! sorted ([`super::order`]), the sorted coherent runs as packets, and what remains as interleaved
-//! single rays ([`super::interleave`]), walking the blocks when the scene has them — or, when it
-//! has wide nodes, as single rays over them, one after another.
+//! sorted ([`super::order`]), the sorted coherent runs as packets, and what remains as single
+//! rays, one after another (over the wide nodes when the scene has them).
 
-use super::interleave;
 use super::order::{Coherence, key, origin_scale};
 use crate::format::Scene;
 use crate::ray::{Hit, Ray};
@@ -70,55 +68,28 @@ impl Answer for AnyHits {
     }
 }
 
-/// Traces `rays` into `out` (same length) with `N` single-ray walks in flight, in input order.
-pub(crate) fn interleaved<A: Answer, C: Contents, const N: usize>(
-    scene: &Scene,
-    rays: &[Ray],
-    out: &mut [A::Out],
-) {
-    singles::<A, C, N>(scene, rays, 0..rays.len(), out);
-}
-
-/// Traces the rays `order` names as single rays, answers into `out`: over the wide nodes one
-/// after another when the scene has them and the core is built with the `wide` feature (as the
-/// one-ray walk chooses, [`Scene::walk`]); else `N` walks in flight, over the blocks when the
-/// scene has them and the core is built with the `blocked` feature, else over the nodes.
+/// Traces the rays `order` names as single rays, one after another, answers into `out`: the
+/// one-ray walk ([`Scene::walk`]: over the wide nodes when the scene has them and the core is
+/// built with the `wide` feature, else over the nodes).
 #[inline(always)]
-fn singles<A: Answer, C: Contents, const N: usize>(
+fn singles<A: Answer, C: Contents>(
     scene: &Scene,
     rays: &[Ray],
     order: impl Iterator<Item = usize>,
     out: &mut [A::Out],
 ) {
-    let finish = |i: usize, q: &A::Q| {
-        if let Some(o) = out.get_mut(i) {
-            *o = A::answer(q);
+    for i in order {
+        if let (Some(ray), Some(o)) = (rays.get(i), out.get_mut(i)) {
+            let mut q = A::query::<C>(ray);
+            scene.walk::<C, _>(ray, &mut q);
+            *o = A::answer(&q);
         }
-    };
-    // Wide nodes, when the scene has them: one ray after another, each walk to its end (eight
-    // cells a step; nothing to gain from interleaving, which hides the binary walk's loads).
-    #[cfg(feature = "wide")]
-    if !scene.wide_nodes().is_empty() {
-        let mut finish = finish;
-        for i in order {
-            if let Some(ray) = rays.get(i) {
-                let mut q = A::query::<C>(ray);
-                crate::traverse::wide::walk::walk::<C, _>(scene, scene.wide_nodes(), ray, &mut q);
-                finish(i, &q);
-            }
-        }
-        return;
     }
-    #[cfg(feature = "blocked")]
-    if let Some(blocks) = crate::traverse::blocked::walk::Blocks::new(scene) {
-        return interleave::run::<_, C, A::Q, N>(&blocks, rays, order, A::query::<C>, finish);
-    }
-    interleave::run::<_, C, A::Q, N>(scene, rays, order, A::query::<C>, finish);
 }
 
 /// The whole stream: `scratch` holds at least one `[key, index]` pair per ray. With
 /// `PACKETS`, coherent runs of `L::WIDTH` rays (by `rule`) are traced as packets.
-pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool, const N: usize>(
+pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
     scene: &Scene,
     rays: &[Ray],
     out: &mut [A::Out],
@@ -181,7 +152,7 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool, cons
         i += 1;
     }
     let order = keys[..n_singles].iter().map(|e| e[1] as usize);
-    singles::<A, C, N>(scene, rays, order, out);
+    singles::<A, C>(scene, rays, order, out);
 }
 
 /// A ray no kernel hits, filling unused entries of a gathered batch.

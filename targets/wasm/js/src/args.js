@@ -34,18 +34,20 @@ export function loadOptions(options) {
 
 /**
  * kdj_build's `layout`, `leaves` and `quality` arguments from a build's options: `layout`
- * 'nodes' (default) or 'blocked'; `leaves` 'groups' (default: triangles four to a SIMD group,
- * tested at once) or 'list' (index lists: about half the memory, slower single rays); `quality`
- * 'fast' (default: binned planes, the builder's `--quality fast`) or 'high' (the exact sweep at
- * every node: a slower build of a tree a few per cent cheaper to trace). Anything else throws.
+ * 'wide' (default: the tree also as eight-wide nodes with tight boxes, faster single rays) or
+ * 'nodes'; `leaves` 'groups' (default: triangles four to a SIMD group, tested at once) or 'list'
+ * (index lists: about half the memory, slower single rays); `quality` 'fast' (default: binned
+ * planes, the builder's `--quality fast`) or 'high' (the exact sweep at every node: a slower
+ * build of a tree a few per cent cheaper to trace). Anything else throws.
  */
 export function buildFlags(options) {
   checkOptions(options, BUILD_OPTIONS, 'Scene.build');
-  const layout = options?.layout ?? 'nodes';
+  const layout = options?.layout ?? 'wide';
   const leaves = options?.leaves ?? 'groups';
   const quality = options?.quality ?? 'fast';
-  if (layout !== 'nodes' && layout !== 'blocked') {
-    throw new TypeError(`kdray: options.layout must be 'nodes' or 'blocked', not ${JSON.stringify(layout)}`);
+  if (layout !== 'wide' && layout !== 'nodes') {
+    const retired = layout === 'blocked' ? " ('blocked' was retired: 'wide' replaces it)" : '';
+    throw new TypeError(`kdray: options.layout must be 'wide' or 'nodes', not ${JSON.stringify(layout)}${retired}`);
   }
   if (leaves !== 'groups' && leaves !== 'list') {
     throw new TypeError(`kdray: options.leaves must be 'groups' or 'list', not ${JSON.stringify(leaves)}`);
@@ -53,7 +55,7 @@ export function buildFlags(options) {
   if (quality !== 'fast' && quality !== 'high') {
     throw new TypeError(`kdray: options.quality must be 'fast' or 'high', not ${JSON.stringify(quality)}`);
   }
-  return [layout === 'blocked' ? 1 : 0, leaves === 'groups' ? 1 : 0, quality === 'fast' ? 1 : 0];
+  return [layout === 'wide' ? 1 : 0, leaves === 'groups' ? 1 : 0, quality === 'fast' ? 1 : 0];
 }
 
 function describe(x) {

@@ -23,7 +23,8 @@ test('bad meshes', async () => {
   await refuses(() => Scene.build(tri(), new Int8Array(3)), /indices must be a Uint32Array/);
   await refuses(() => Scene.build(new Float32Array([-3e38, 0, 0, 3e38, 0, 0, 0, 1, 0])), /overflow/);
   await refuses(() => Scene.build(tri(), { leaves: 'lists' }), /options.leaves must be 'groups' or 'list', not "lists"/);
-  await refuses(() => Scene.build(tri(), undefined, { layout: 'blocks' }), /options.layout must be 'nodes' or 'blocked', not "blocks"/);
+  await refuses(() => Scene.build(tri(), undefined, { layout: 'blocks' }), /options.layout must be 'wide' or 'nodes', not "blocks"/);
+  await refuses(() => Scene.build(tri(), undefined, { layout: 'blocked' }), /not "blocked" \('blocked' was retired: 'wide' replaces it\)/);
 });
 
 test('bad .kdt bytes', async () => {

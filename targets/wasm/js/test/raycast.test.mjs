@@ -58,7 +58,7 @@ function compare(positions, indices, n, seed, options) {
 
 test('random soup, non-indexed, agrees with Mesh.raycast and three-mesh-bvh', compare(soup(400, 1), undefined, 1500, 2));
 test('random soup, watertight mode', compare(soup(400, 3), undefined, 1500, 4, { watertight: true }));
-test('random soup, cache-line blocks', compare(soup(2000, 5, 0.05), undefined, 1500, 6, { layout: 'blocked' }));
+test('random soup, binary nodes only', compare(soup(2000, 5, 0.05), undefined, 1500, 6, { layout: 'nodes' }));
 test('bunny, indexed', compare(bunny().positions, bunny().indices, 3000, 7));
 test('bunny, watertight', compare(bunny().positions, bunny().indices, 1500, 8, { watertight: true }));
 test('bunny, index-list leaves', compare(bunny().positions, bunny().indices, 1500, 14, { leaves: 'list' }));

@@ -42,7 +42,7 @@ test('random call sequences: nothing traps, every live scene answers as before',
       try {
         if (op === 'build') {
           const n = 1 + Math.floor(random() * 2000);
-          add(await Scene.build(soup(n, step + 100 * seed), pick([undefined, { watertight: true }, { leaves: 'list' }, { layout: 'blocked' }])));
+          add(await Scene.build(soup(n, step + 100 * seed), pick([undefined, { watertight: true }, { leaves: 'list' }, { layout: 'nodes' }])));
         } else if (op === 'huge') {
           // Copies of one triangle: tens of thousands build, hundreds of thousands do not. It
           // lies away from the rays (a ray through it would test every copy).

@@ -18,7 +18,7 @@ test('buildInWorker gives the same tree as Scene.build', async () => {
 
 test('buildInWorker passes the build options', async () => {
   const { positions, indices } = bunny();
-  const options = { leaves: 'list', layout: 'blocked' };
+  const options = { leaves: 'list', layout: 'nodes' };
   const { scene } = await buildInWorker(positions, indices, options);
   assert.deepEqual(scene.toBytes(), (await Scene.build(positions, indices, options)).toBytes());
   assert.notDeepEqual(scene.toBytes(), (await Scene.build(positions, indices)).toBytes());

@@ -8,8 +8,11 @@ export interface SceneOptions {
    * edges and vertices. A little slower than the default (Möller–Trumbore).
    */
   watertight?: boolean;
-  /** 'blocked' also stores the tree in cache-line blocks (faster single rays, ~5 % larger). */
-  layout?: 'nodes' | 'blocked';
+  /**
+   * 'wide' (the default) also stores the tree as eight-wide nodes with tight boxes, which single
+   * rays walk faster; 'nodes' keeps the binary nodes only (a smaller tree).
+   */
+  layout?: 'wide' | 'nodes';
   /**
    * How a leaf holds its triangles: 'groups' (the default) inline, four to a SIMD group tested
    * in one pass, built with the SAH priced in groups — single rays about 20 % faster; 'list'

@@ -227,8 +227,8 @@ pub extern "C" fn kdj_free(ptr: u32) {
 }
 
 /// Builds a scene from `n_pos` floats of positions at `pos_ptr` and `n_idx` indices at `idx_ptr`
-/// (`idx_ptr = 0`: no indices, every 9 floats a triangle); `layout`: 0 nodes, 1 with cache-line
-/// blocks; `leaves`: 0 index lists, 1 triangle groups (built with the SAH priced in groups);
+/// (`idx_ptr = 0`: no indices, every 9 floats a triangle); `layout`: 0 nodes, 1 with wide
+/// nodes; `leaves`: 0 index lists, 1 triangle groups (built with the SAH priced in groups);
 /// `quality`: 0 `high`, 1 `fast` ([`kdray::build::Quality`]).
 /// Returns the scene's handle (> 0) or a failure.
 #[unsafe(no_mangle)]
@@ -254,7 +254,7 @@ pub extern "C" fn kdj_build(
         };
         let layout = match layout {
             0 => Layout::Nodes,
-            1 => Layout::Blocked,
+            1 => Layout::Wide,
             _ => return Err((BAD_ARGUMENT, "layout must be 0 or 1".into())),
         };
         let leaves = match leaves {
