@@ -8,8 +8,10 @@
 #
 # Builds for AVX2 + FMA (-C target-cpu=x86-64-v3, the protocol's ISA, also on machines with
 # AVX-512; KDRAY_CPU=native or another CPU name overrides it) into $CARGO_TARGET_DIR/KDRAY_CPU
-# (default target/x86-64-v3), so the baseline build stays untouched. kdray's rows come from two
-# trees: the default one (index lists) and `kdray build --leaves groups` ("kdray groups"). Meshes default to the dragon and the
+# (default target/x86-64-v3), so the baseline build stays untouched. kdray's rows come from three
+# trees: index lists in nodes ("kdray"), `kdray build --leaves groups --layout nodes` ("kdray
+# groups") and the same grouped tree with its wide section, `--leaves groups --layout wide`
+# ("kdray wide", what `kdray trace` builds by default). Meshes default to the dragon and the
 # bunny in $KDRAY_DATA (default data/), where scripts/fetch-meshes.sh puts them.
 #
 # Usage: scripts/compare.sh [MESH...] [--repeat N] [--size WxH]
