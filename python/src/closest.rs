@@ -4,8 +4,9 @@
 //! Which walk: rays that come in coherent packets as they are given — a camera's tiles: eight
 //! consecutive rays of one direction octant — are traced as packets of consecutive rays
 //! (`kdray::rays::trace_packets_in`, what `kdray trace --packet 8` does); other rays through the
-//! core's ray stream, which sorts them into coherent runs and traces the rest as interleaved
-//! single rays (`kdray_core::traverse::stream`, what `kdray trace --stream --packet 8` does). The
+//! core's ray stream, which sorts them into coherent runs and traces the rest as single rays
+//! (over the wide nodes, the default layout: `kdray_core::traverse::stream`, what `kdray trace
+//! --stream --packet 8` does). The
 //! stream traces a camera's tiles as the same packets, but it tests each run's coherence first
 //! (a quarter of its time in a profile of the bunny's primary rays): on those rays it ran 0.63×
 //! as fast as packets of consecutive rays on the bunny, 0.85× on the dragon; on diffuse bounces,
