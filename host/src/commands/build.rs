@@ -31,8 +31,8 @@ pub struct BuildArgs {
     #[arg(long)]
     pub serial_build: bool,
     /// How the tree is stored: `wide` (the default: the nodes and a copy collapsed into
-    /// eight-wide nodes with tight boxes, which single rays walk eight cells a step; 1.8-1.9x as fast
-    /// on the dragon's diffuse rays than `nodes`, docs/BENCHMARKS.md "Wide nodes"), or `nodes`
+    /// eight-wide nodes with tight boxes, which single rays walk eight cells a step; 1.8-1.9x as
+    /// fast on the dragon's diffuse rays as `nodes`, docs/BENCHMARKS.md "Wide nodes"), or `nodes`
     /// (8-byte nodes only: the smallest file, what packets walk). (`blocked` was retired in
     /// format 12: `wide` replaces it.)
     #[arg(long, value_name = "nodes|wide", default_value = "wide", value_parser = parse_layout)]
