@@ -42,6 +42,16 @@ pub enum Leaves {
 }
 
 impl Leaves {
+    /// The leaves for a tree traced on this machine (`kdray trace`, `render`): groups for a
+    /// scene of triangles only, index lists for one with spheres (groups hold triangles only).
+    pub fn for_host(geom: &Geometry) -> Self {
+        if geom.spheres.is_empty() {
+            Leaves::Groups
+        } else {
+            Leaves::List
+        }
+    }
+
     /// The builder's defaults for a tree stored with these leaves: pbrt-v3's costs for index
     /// lists, [`BuildParams::grouped`] (the SAH priced in groups) for groups.
     pub fn build_params(self) -> BuildParams {

@@ -73,11 +73,7 @@ impl BuildArgs {
     /// The leaves of a tree built to be traced here (`trace`, `rays`): `--leaves`, or by default
     /// groups for a scene of triangles only and index lists for one with spheres.
     pub fn leaves_for(&self, geom: &Geometry) -> flat::Leaves {
-        self.leaves.unwrap_or(if geom.spheres.is_empty() {
-            flat::Leaves::Groups
-        } else {
-            flat::Leaves::List
-        })
+        self.leaves.unwrap_or_else(|| flat::Leaves::for_host(geom))
     }
 
     /// The builder's settings for a tree stored with `leaves`.

@@ -142,11 +142,7 @@ impl Prepared {
         // Wide nodes, and triangle groups where the scene has no spheres: the bounce and shadow
         // rays that the stream cannot trace as packets walk them one by one (docs/BENCHMARKS.md,
         // "Wide nodes").
-        let leaves = if geom.spheres.is_empty() {
-            kdray::flat::Leaves::Groups
-        } else {
-            kdray::flat::Leaves::List
-        };
+        let leaves = kdray::flat::Leaves::for_host(&geom);
         let (words, build_ms, _) = build_words(
             &file.path,
             &geom,
