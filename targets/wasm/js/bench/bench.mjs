@@ -2,9 +2,10 @@
 // and raycasts per second of `raycast` (one call per ray, as three.js users cast), `raycastMany`
 // (one call for all rays) and three-mesh-bvh's `raycastFirst` (DoubleSide: kdray has no culling).
 //
-//   node bench/bench.mjs [--rounds N] [--meshes bunny,dragon] [--leaves groups,list]
+//   node bench/bench.mjs [--rounds N] [--meshes bunny,torusknot,dragon] [--leaves groups,list]
 //
-// Meshes: the bunny (host/scenes/meshes/bunny.ply.gz, 3,674 triangles) and the full Stanford dragon
+// Meshes (bench/meshes.mjs): the bunny (host/scenes/meshes/bunny.ply.gz, 3,674 triangles), three.js's
+// TorusKnotGeometry(1, 0.3, 512, 100) (102,400 triangles) and the full Stanford dragon
 // (data/dragon.ply, 871,414 triangles; `bash scripts/fetch-meshes.sh`, left out when absent).
 // Rays: `primary` — a 256×256 pinhole camera grid looking at the mesh from outside its box
 // (coherent, what mouse picking and visibility tests cast), and `random` — from random points on a
@@ -19,13 +20,14 @@ import os from 'node:os';
 import * as THREE from 'three';
 import { MeshBVH, SAH, CENTER } from 'three-mesh-bvh';
 import { Scene, moduleVariant, init } from '../src/index.js';
-import { bunny, fetched, rays as randomRays } from '../test/meshes.mjs';
+import { bunny, rays as randomRays } from '../test/meshes.mjs';
+import { meshByName } from './meshes.mjs';
 import { primaryRays } from './primary.mjs';
 
 const args = process.argv.slice(2);
 const opt = (name, dflt) => { const i = args.indexOf(`--${name}`); return i < 0 ? dflt : args[i + 1]; };
 const rounds = +opt('rounds', 5);
-const meshNames = opt('meshes', 'bunny,dragon').split(',');
+const meshNames = opt('meshes', 'bunny,torusknot,dragon').split(',');
 const leavesKinds = opt('leaves', 'groups,list').split(',');
 
 const median = (xs) => { const s = [...xs].sort((a, b) => a - b); return s.length % 2 ? s[(s.length - 1) / 2] : (s[s.length / 2 - 1] + s[s.length / 2]) / 2; };
@@ -63,7 +65,7 @@ await init();
 }
 const rows = [];
 for (const name of meshNames) {
-  const mesh = name === 'bunny' ? bunny() : fetched(name);
+  const mesh = meshByName(name);
   if (!mesh) { console.error(`bench: leaving out ${name} (bash scripts/fetch-meshes.sh fetches it)`); continue; }
   const tris = mesh.indices.length / 3;
   // Build: alternating rounds (the dragon's builds take seconds: fewer rounds).

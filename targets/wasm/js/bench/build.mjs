@@ -15,18 +15,13 @@ import os from 'node:os';
 import * as THREE from 'three';
 import { MeshBVH, SAH, CENTER } from 'three-mesh-bvh';
 import { Scene, moduleVariant, init } from '../src/index.js';
-import { bunny, fetched } from '../test/meshes.mjs';
+import { meshByName } from './meshes.mjs';
 
 const args = process.argv.slice(2);
 const opt = (name, dflt) => { const i = args.indexOf(`--${name}`); return i < 0 ? dflt : args[i + 1]; };
 const rounds = +opt('rounds', 5);
 const meshNames = opt('meshes', 'bunny,torusknot,dragon').split(',');
 const median = (xs) => { const s = [...xs].sort((a, b) => a - b); return s.length % 2 ? s[(s.length - 1) / 2] : (s[s.length / 2 - 1] + s[s.length / 2]) / 2; };
-
-function torusKnot() {
-  const g = new THREE.TorusKnotGeometry(1, 0.3, 512, 100);
-  return { positions: g.getAttribute('position').array, indices: Uint32Array.from(g.index.array) };
-}
 
 // A geometry of its own for each BVH: three-mesh-bvh reorders the index buffer in place.
 function geometryOf({ positions, indices }) {
@@ -50,7 +45,7 @@ await init();
 }
 const rows = [];
 for (const name of meshNames) {
-  const mesh = name === 'bunny' ? bunny() : name === 'torusknot' ? torusKnot() : fetched(name);
+  const mesh = meshByName(name);
   if (!mesh) { console.error(`bench: leaving out ${name} (bash scripts/fetch-meshes.sh fetches it)`); continue; }
   const tris = mesh.indices.length / 3;
   const times = Object.fromEntries(Object.keys(variants).map((k) => [k, []]));

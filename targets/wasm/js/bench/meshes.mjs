@@ -1,0 +1,17 @@
+// The benchmarks' meshes by name: `bunny` (host/scenes/meshes/bunny.ply.gz, 3,674 triangles),
+// `torusknot` (three.js's TorusKnotGeometry(1, 0.3, 512, 100), 102,400 triangles, the mesh
+// three-mesh-bvh's own benchmarks use) and any mesh fetched into data/ (`dragon`: 871,414
+// triangles; `bash scripts/fetch-meshes.sh`), or null when a fetched mesh is absent.
+import * as THREE from 'three';
+import { bunny, fetched } from '../test/meshes.mjs';
+
+export function torusKnot() {
+  const g = new THREE.TorusKnotGeometry(1, 0.3, 512, 100);
+  return { positions: g.getAttribute('position').array, indices: Uint32Array.from(g.index.array) };
+}
+
+export function meshByName(name) {
+  if (name === 'bunny') return bunny();
+  if (name === 'torusknot') return torusKnot();
+  return fetched(name);
+}
