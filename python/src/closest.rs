@@ -2,8 +2,9 @@
 //! the rays at hand, with the batch's checks, conversion and answers in the same pass.
 //!
 //! Which walk: rays that come in coherent packets as they are given — a camera's tiles: eight
-//! consecutive rays of one direction octant — are traced as packets of consecutive rays
-//! (`kdray::rays::trace_packets_in`, what `kdray trace --packet 8` does); other rays through the
+//! consecutive rays of one direction octant — are traced as packets of consecutive rays (the
+//! packets and the walk of `kdray::rays::trace_packets_in`, what `kdray trace --packet 8` does,
+//! made from the arrays here: `trace_packets`); other rays through the
 //! core's ray stream, which sorts them into coherent runs and traces the rest as single rays
 //! (over the wide nodes, the default layout: `kdray_core::traverse::stream`, what `kdray trace
 //! --stream --packet 8` does). The
@@ -12,11 +13,14 @@
 //! as fast as packets of consecutive rays on the bunny, 0.85× on the dragon; on diffuse bounces,
 //! packets of consecutive rays ran 0.72–0.84× the stream (README, "Python").
 //!
-//! How: each thread converts a run of rays into its own buffer (the rays as traced: unit
-//! directions, intervals scaled, the module doc of `rays`), checking them on the way, traces them
-//! and writes their answers, before the next run; a packet run's rays stay in the core's cache
-//! between the three steps. A batch with a ray `check_values` refuses traces nothing more once a
-//! thread finds it, and the caller reports the error as `check_values` words it.
+//! How: each thread takes a run of rays at a time. On the packet path it reads each packet from
+//! the arrays straight into lanes (`Rows::packet`), checks it lane by lane, traces it and writes
+//! its answers from the lanes: no buffer of rays or hits in between (`trace_packets`); the next
+//! run's rows and answers are prefetched meanwhile. On the stream path it converts the rest of
+//! its piece into its own buffer (the rays as traced: unit directions, intervals scaled, the
+//! module doc of `rays`), checking them on the way, traces them and writes their answers. A batch
+//! with a ray `check_values` refuses traces nothing more once a thread finds it, and the caller
+//! reports the error as `check_values` words it.
 
 use crate::rays::{Batch, CHUNK, IDLE, MAX_PIECE, Rows, UNIT};
 use core::ops::Range;
@@ -29,8 +33,8 @@ use rayon::prelude::*;
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Rays converted, traced and answered at a time on the packet path: few enough that a run's
-/// rays and hits stay in the L1 cache from their conversion to their answers (8 KiB of rays).
+/// Rays decided on (packets or stream) at a time, and how far ahead the packet path prefetches:
+/// few enough that a run's rows stay in the caches from the decision to the packets (8 KiB).
 const RUN: usize = 256;
 
 /// Where closest hits go (the package's arrays, `n` items each, `3n` for points and normals):
@@ -115,11 +119,18 @@ fn chunks_or_none<T>(v: Option<&mut [T]>, c: usize, len: usize) -> Vec<Option<&m
 /// then says why; `out` is then partly written).
 pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, out: Answers) -> bool {
     let n = batch.n;
-    // A piece per quarter of a thread's share (for balance), whole runs (so whole packets).
-    let c = n
-        .div_ceil(4 * rayon::current_num_threads().max(1))
-        .clamp(CHUNK, MAX_PIECE)
-        .next_multiple_of(RUN);
+    // Pieces of whole runs (so whole packets). A batch that starts in packets (a camera's) in
+    // pieces of `CHUNK` rays, as `kdray trace --packet` splits its rays: many small pieces
+    // balance the threads best, and packets gain nothing from longer ones. Other batches in a
+    // piece per quarter of a thread's share: the stream's sort finds more coherent runs in a
+    // longer piece. The answers are the same either way: only the split changes.
+    let c = if in_packets(&batch.rows(), 0..n.min(RUN), kdray_core::isa::lanes()) {
+        CHUNK
+    } else {
+        n.div_ceil(4 * rayon::current_num_threads().max(1))
+            .clamp(CHUNK, MAX_PIECE)
+    }
+    .next_multiple_of(RUN);
     let count = n.div_ceil(c);
     let pieces: Vec<Piece> = out
         .t
