@@ -15,8 +15,9 @@
 //!
 //! How: each thread takes a run of rays at a time. On the packet path it reads each packet from
 //! the arrays straight into lanes (`Rows::packet`), checks it lane by lane, traces it and writes
-//! its answers from the lanes: no buffer of rays or hits in between (`trace_packets`); the next
-//! run's rows and answers are prefetched meanwhile. On the stream path it converts the rest of
+//! its answers from the lanes: no buffer of rays or hits in between (`trace_packets`; software
+//! prefetching of the next run's rows and answers cost 4 % more CPU time on the bunny's primary
+//! rays, 2 % on the dragon's, and was taken out). On the stream path it converts the rest of
 //! its piece into its own buffer (the rays as traced: unit directions, intervals scaled, the
 //! module doc of `rays`), checking them on the way, traces them and writes their answers. A batch
 //! with a ray `check_values` refuses traces nothing more once a thread finds it, and the caller
@@ -33,8 +34,8 @@ use rayon::prelude::*;
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Rays decided on (packets or stream) at a time, and how far ahead the packet path prefetches:
-/// few enough that a run's rows stay in the caches from the decision to the packets (8 KiB).
+/// Rays decided on (packets or stream) at a time: few enough that a run's rows stay in the caches
+/// from the decision to the packets (8 KiB).
 const RUN: usize = 256;
 
 /// Where closest hits go (the package's arrays, `n` items each, `3n` for points and normals):
@@ -61,34 +62,6 @@ struct Piece<'a> {
     v: &'a mut [MaybeUninit<f32>],
     points: Option<&'a mut [MaybeUninit<f32>]>,
     normals: Option<&'a mut [MaybeUninit<f32>]>,
-}
-
-impl Piece<'_> {
-    /// Asks the CPU to fetch, for writing, the lines of the answers of the piece's rays
-    /// `at..at + 8` (as `Rows::prefetch` does for the rays): the answers' arrays are written once,
-    /// a line at a time, and each line is read in first. Past the end, harmlessly.
-    #[inline(always)]
-    fn prefetch(&self, at: usize) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use core::arch::x86_64::{_MM_HINT_ET0, _mm_prefetch};
-            let lines = [
-                self.t.as_ptr().wrapping_add(at).cast::<i8>(),
-                self.prim.as_ptr().wrapping_add(at).cast::<i8>(),
-                self.u.as_ptr().wrapping_add(at).cast::<i8>(),
-                self.v.as_ptr().wrapping_add(at).cast::<i8>(),
-            ];
-            for line in lines {
-                // SAFETY: a prefetch reads nothing the program sees, and never faults.
-                #[allow(unused_unsafe)]
-                unsafe {
-                    _mm_prefetch::<_MM_HINT_ET0>(line)
-                };
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = at;
-    }
 }
 
 /// A thread's buffers: a run's rays as traced, their directions' lengths, their hits, the
@@ -276,9 +249,6 @@ fn trace_packets<L: Lanes>(
     let mut lengths = [1.0f64; 8];
     for i in run.clone().step_by(L::WIDTH) {
         let k = L::WIDTH.min(run.end - i);
-        // The next run's rows and answers, a packet's share at a time (`Rows::prefetch`).
-        rows.prefetch(i + RUN);
-        p.prefetch(i - p.start + RUN);
         let mut packet = if k == L::WIDTH {
             rows.packet::<L>(i)
         } else {

@@ -395,36 +395,6 @@ impl Rows<'_> {
         }
     }
 
-    /// Asks the CPU to fetch the rows of rays `i..i + 8` into its caches (L2), ahead of their use:
-    /// the walk between two runs of rays leaves the memory idle, and the hardware's prefetcher
-    /// does not look as far ahead as the next run. Addresses past the arrays are fetched harmlessly
-    /// (a prefetch never faults) and computed without being dereferenced.
-    #[inline(always)]
-    pub fn prefetch(&self, i: usize) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use core::arch::x86_64::{_MM_HINT_T1, _mm_prefetch};
-            let [so, sd, slo, shi] = self.strides;
-            let lines = [
-                self.origins.as_ptr().wrapping_add(i * so),
-                self.origins.as_ptr().wrapping_add(i * so + 16),
-                self.directions.as_ptr().wrapping_add(i * sd),
-                self.directions.as_ptr().wrapping_add(i * sd + 16),
-                self.tmin.as_ptr().wrapping_add(i * slo),
-                self.tmax.as_ptr().wrapping_add(i * shi),
-            ];
-            for line in lines {
-                // SAFETY: a prefetch reads nothing the program sees, and never faults.
-                #[allow(unused_unsafe)]
-                unsafe {
-                    _mm_prefetch::<_MM_HINT_T1>(line.cast::<i8>())
-                };
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = i;
-    }
-
     /// The directions of rays `range`, 3 floats each, when each ray has its own (`None`: one
     /// for all).
     pub fn direction_rows(&self, range: core::ops::Range<usize>) -> Option<&[f32]> {
