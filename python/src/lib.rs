@@ -10,6 +10,7 @@
 //! Every failure is a `ValueError` naming the argument and the problem; the Python layer raises
 //! the `TypeError`s.
 
+mod block;
 mod closest;
 mod mesh;
 mod owned;
@@ -17,14 +18,13 @@ mod rays;
 
 use kdray::flat::{self, Layout, Leaves};
 use kdray_core::traverse::Mode;
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use owned::{Options, Owned};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use rayon::ThreadPool;
 use rays::Batch;
-use std::mem::MaybeUninit;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
@@ -89,19 +89,6 @@ fn slice<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
 ) -> PyResult<&'a [T]> {
     a.as_slice()
         .map_err(|_| value_error(format!("{name} is not C-contiguous")))
-}
-
-/// The elements of `a`, to write.
-///
-/// # Safety
-/// `a` is a new array (from `PyArray1::new`, so C-contiguous) that Python has not seen (so
-/// nothing else views its elements while the returned slice lives).
-unsafe fn elements<'a, T: numpy::Element>(
-    a: &'a mut Bound<'_, PyArray1<T>>,
-) -> &'a mut [MaybeUninit<T>] {
-    // SAFETY: as the caller promises, `a.data()` points to `a.len()` elements that nothing else
-    // reads or writes while the slice lives.
-    unsafe { std::slice::from_raw_parts_mut(a.data().cast::<MaybeUninit<T>>(), a.len()) }
 }
 
 /// A validated kd-tree over a triangle mesh (the package's `kdray.Scene` wraps it).
@@ -321,37 +308,28 @@ impl Tree {
     )> {
         let batch = rays.batch()?;
         let scene = self.owned.scene();
-        // numpy's own arrays, new and uninitialized, written in place by the threads: zeroing
-        // them (calloc) took a quarter of a call's time on the bunny's primary rays and 8 % on
-        // the dragon's (README, "Python"); numpy's allocator advises huge pages for arrays of
-        // 4 MiB and more.
+        // The arrays are one recycled block's (`block`: fresh pages each call cost this VM
+        // 2-8 ms on a million rays), written in place by the threads, uninitialized until then:
+        // zeroing them took a quarter of a call's time on the bunny's primary rays.
         let n = batch.n;
-        // SAFETY (`PyArray1::new`): every element is written by `closest::intersect` before the
-        // arrays reach Python; if it refuses the batch they are dropped unread.
-        let (mut t, mut prim, mut u, mut v) = unsafe {
-            (
-                PyArray1::<f32>::new(py, n, false),
-                PyArray1::<i64>::new(py, n, false),
-                PyArray1::<f32>::new(py, n, false),
-                PyArray1::<f32>::new(py, n, false),
-            )
-        };
-        let (mut p, mut nrm) = unsafe {
-            (
-                points.then(|| PyArray1::<f32>::new(py, 3 * n, false)),
-                normals.then(|| PyArray1::<f32>::new(py, 3 * n, false)),
-            )
-        };
-        // SAFETY (`elements`): the arrays are new.
-        let out = unsafe {
-            closest::Answers {
-                t: elements(&mut t),
-                prim: elements(&mut prim),
-                u: elements(&mut u),
-                v: elements(&mut v),
-                points: p.as_mut().map(|a| elements(a)),
-                normals: nrm.as_mut().map(|a| elements(a)),
-            }
+        let extra = |on: bool| if on { 3 * n } else { 0 };
+        let layout = block::Layout::new([
+            (n, 4),
+            (n, 8),
+            (n, 4),
+            (n, 4),
+            (extra(points), 4),
+            (extra(normals), 4),
+        ]);
+        let mut memory = block::Block::new(layout);
+        let [t, prim, u, v, p, nrm] = memory.split(layout);
+        let out = closest::Answers {
+            t: block::typed(t, n),
+            prim: block::typed(prim, n),
+            u: block::typed(u, n),
+            v: block::typed(v, n),
+            points: points.then(|| block::typed(p, 3 * n)),
+            normals: normals.then(|| block::typed(nrm, 3 * n)),
         };
         // The rays are checked as they are traced; a refused one is reported as
         // `check_values` words it.
@@ -371,7 +349,18 @@ impl Tree {
             py.detach(|| on_pool(threads, run))?
         }
         .map_err(value_error)?;
-        Ok((t, prim, u, v, p, nrm))
+        let memory = Bound::new(py, memory)?;
+        // SAFETY: the layout is the block's, and `closest::intersect` wrote every element.
+        unsafe {
+            Ok((
+                block::Block::array(&memory, layout, 0, n),
+                block::Block::array(&memory, layout, 1, n),
+                block::Block::array(&memory, layout, 2, n),
+                block::Block::array(&memory, layout, 3, n),
+                points.then(|| block::Block::array(&memory, layout, 4, 3 * n)),
+                normals.then(|| block::Block::array(&memory, layout, 5, 3 * n)),
+            ))
+        }
     }
 
     /// Whether anything lies along each ray.

@@ -18,6 +18,7 @@
 use crate::mesh::{number, row};
 use glam::Vec3;
 use kdray::crossings::{AllHit, all_hits};
+use kdray_core::simd::{Lanes, RayPacket, Vec3x};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config};
 use kdray_core::{Ray, Scene};
@@ -43,7 +44,7 @@ fn first<T: Sync>(items: &[T], bad: impl Fn(&T) -> bool + Sync + Send) -> Option
 }
 
 /// A placeholder in a buffer, overwritten before it is traced.
-const IDLE: Ray = Ray {
+pub const IDLE: Ray = Ray {
     origin: Vec3::ZERO,
     dir: Vec3::X,
     tmin: 0.0,
@@ -288,6 +289,23 @@ impl Batch<'_> {
         (o + f64::from(t) * d).as_vec3().to_array()
     }
 
+    /// The batch's rows, read with a stride per array (0 for an array of one row).
+    pub fn rows(&self) -> Rows<'_> {
+        let stride = |a: &[f32], width: usize| if a.len() == width { 0 } else { width };
+        Rows {
+            origins: self.origins,
+            directions: self.directions,
+            tmin: self.tmin,
+            tmax: self.tmax,
+            strides: [
+                stride(self.origins, 3),
+                stride(self.directions, 3),
+                stride(self.tmin, 1),
+                stride(self.tmax, 1),
+            ],
+        }
+    }
+
     fn pieces(&self) -> usize {
         self.n
             .div_ceil(4 * rayon::current_num_threads().max(1))
@@ -295,9 +313,105 @@ impl Batch<'_> {
     }
 }
 
+/// A [`Batch`]'s arrays with the step from one ray's row to the next in each (0: one row shared by
+/// every ray), for reading rays as given, unchecked, in a loop.
+#[derive(Clone, Copy, Debug)]
+pub struct Rows<'a> {
+    origins: &'a [f32],
+    directions: &'a [f32],
+    tmin: &'a [f32],
+    tmax: &'a [f32],
+    strides: [usize; 4],
+}
+
+impl Rows<'_> {
+    /// Ray `i` as given: not checked, not normalized (what `kdray trace` reads from its file).
+    #[inline(always)]
+    pub fn given(&self, i: usize) -> Ray {
+        let [so, _, slo, shi] = self.strides;
+        Ray {
+            origin: Vec3::from_slice(&self.origins[i * so..i * so + 3]),
+            dir: self.direction(i),
+            tmin: self.tmin[i * slo],
+            tmax: self.tmax[i * shi],
+        }
+    }
+
+    /// Rays `i..i + L::WIDTH` as given, as a packet: what `RayPacket::from_rays` makes of the
+    /// same rays (its lanes, active mask and `inv_dir`, computed the same way), read from the
+    /// arrays straight into lanes instead of through a buffer of rays.
+    ///
+    /// # Panics
+    /// If the rays are not all in the batch.
+    #[inline(always)]
+    pub fn packet<L: Lanes>(&self, i: usize) -> RayPacket<L> {
+        let w = L::WIDTH;
+        let [so, sd, slo, shi] = self.strides;
+        // Columns of 3-vectors: a row per ray (`stride` 3) or one for all (0).
+        let column = |a: &[f32], stride: usize, c: usize| {
+            if stride == 0 {
+                L::splat(a[c])
+            } else {
+                let rows = &a[3 * i..3 * (i + w)];
+                L::from_fn(|j| rows[3 * j + c])
+            }
+        };
+        let scalar = |a: &[f32], stride: usize| {
+            if stride == 0 {
+                L::splat(a[0])
+            } else {
+                let rows = &a[i..i + w];
+                L::from_fn(|j| rows[j])
+            }
+        };
+        let origin = Vec3x {
+            x: column(self.origins, so, 0),
+            y: column(self.origins, so, 1),
+            z: column(self.origins, so, 2),
+        };
+        let dir = Vec3x {
+            x: column(self.directions, sd, 0),
+            y: column(self.directions, sd, 1),
+            z: column(self.directions, sd, 2),
+        };
+        let (tmin, tmax) = (scalar(self.tmin, slo), scalar(self.tmax, shi));
+        let inf = L::splat(f32::INFINITY);
+        let finite = |x: L| x.abs().lt(inf);
+        let active = finite(origin.x)
+            & finite(origin.y)
+            & finite(origin.z)
+            & finite(dir.x)
+            & finite(dir.y)
+            & finite(dir.z)
+            & !tmin.is_nan()
+            & !tmax.is_nan();
+        RayPacket {
+            origin,
+            dir,
+            inv_dir: dir.recip(),
+            tmin,
+            tmax,
+            active,
+        }
+    }
+
+    /// The directions of rays `range`, 3 floats each, when each ray has its own (`None`: one
+    /// for all).
+    pub fn direction_rows(&self, range: core::ops::Range<usize>) -> Option<&[f32]> {
+        (self.strides[1] != 0).then(|| &self.directions[3 * range.start..3 * range.end])
+    }
+
+    /// Ray `i`'s direction as given.
+    #[inline(always)]
+    pub fn direction(&self, i: usize) -> Vec3 {
+        let sd = self.strides[1];
+        Vec3::from_slice(&self.directions[i * sd..i * sd + 3])
+    }
+}
+
 /// How far from 1 a direction's squared length (in f32) may be for the direction to be traced as
 /// given: 2⁻²⁰, a few of f32's units in the last place of 1, as a normalized f32 vector has.
-const UNIT: f32 = 1.0 / (1u32 << 20) as f32;
+pub const UNIT: f32 = 1.0 / (1u32 << 20) as f32;
 
 /// The ray `origin + t·dir`, `tmin < t < tmax`, as traced, and the length of `dir` by which its
 /// `t` is divided: a direction of unit length (to within [`UNIT`]) as given, with length 1 (the

@@ -131,5 +131,29 @@ def test_t_is_in_units_of_the_direction_near_unit_length(scene_and_mesh, stretch
     np.testing.assert_allclose(b.t[same] * scale[same], a.t[same], rtol=5e-6)
 
 
+def test_packets_read_from_broadcast_rows_and_mixed_lengths_match_single_rays(scene_and_mesh):
+    # The packet path reads each packet from the arrays into lanes: one origin and one tmin/tmax
+    # for every ray (broadcast, not copied), every third packet's directions stretched (converted
+    # ray by ray then) and one ray's in another packet, and a batch that ends part way through a
+    # packet. Each answer is the single-ray walk's on the same ray.
+    scene = scene_and_mesh[0]
+    origins, directions = camera_rays(64, 32)
+    directions = directions[:-3].copy()
+    for k in range(0, len(directions), 24):
+        directions[k:k + 8] *= np.float32(2.0)
+    directions[13] *= np.float32(3.0)
+    tmin, tmax = np.float32(0.5), np.float32(40.0)
+    hits = scene.intersect(origins[0], directions, tmin, tmax)
+    assert hits.t.shape == (len(directions),) and (hits.prim >= 0).mean() > 0.1
+    for i in list(range(0, len(directions), 37)) + [len(directions) - 1]:
+        assert scene.raycast(origins[0], directions[i], tmin, tmax) == (
+            hits.t[i], hits.prim[i], hits.u[i], hits.v[i])
+    rows = np.broadcast_to(origins[0], directions.shape).copy()
+    full = scene.intersect(rows, directions, np.full(len(rows), tmin), np.full(len(rows), tmax))
+    for a, b in zip(hits, full):
+        if a is not None:
+            np.testing.assert_array_equal(a, b)
+
+
 def test_the_build_names_its_instruction_set():
     assert kdray.ISA in {"avx2+fma", "avx2", "avx", "sse4.1", "sse2", "neon", "scalar"}
