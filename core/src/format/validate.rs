@@ -197,7 +197,8 @@ impl<'a> Scene<'a> {
         if !(bounds[0].is_finite() && bounds[1].is_finite() && bounds[0].cmple(bounds[1]).all()) {
             return Err(FormatError::BadBounds);
         }
-        let scene = Scene {
+        #[cfg_attr(feature = "wide", allow(unused_mut))]
+        let mut scene = Scene {
             contents,
             build_ms: f32::from_bits(h(header::BUILD_MS)),
             depth: h(header::DEPTH),
@@ -242,7 +243,15 @@ impl<'a> Scene<'a> {
             return Err(FormatError::BadDepth);
         }
         if contents & contents::WIDE != 0 {
+            #[cfg(feature = "wide")]
             crate::traverse::wide::validate::validate(&scene, scene.wide)?;
+            // Without the `wide` feature nothing walks the section: it is set aside unread (the
+            // walks take the binary nodes, with the same closest hits), so the build links no
+            // validation of it (3.6 KB of the firmware's `.text`).
+            #[cfg(not(feature = "wide"))]
+            {
+                scene.wide = &[];
+            }
         }
         Ok(scene)
     }
