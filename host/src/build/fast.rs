@@ -99,7 +99,12 @@ fn build_node(
             None => (None, None),
         }
     } else {
-        (exact_split(refs, &bounds, ctx), None)
+        let best = if n <= SMALL_MAX {
+            small_split(refs, &bounds, &ctx.costs)
+        } else {
+            exact_split(refs, &bounds, ctx)
+        };
+        (best, None)
     };
     let Some((split, bad_refines)) = best.and_then(|s| ctx.accept(s, n, bad_refines)) else {
         return leaf(stack);
@@ -157,7 +162,7 @@ fn build_node(
 /// Bins for a node of `n` references: `bins`, or fewer for small nodes (at least 8), whose
 /// pricing would otherwise cost more than their counting.
 fn bins_for(n: usize, bins: usize) -> usize {
-    bins.min((n / 2).max(8)).max(2)
+    bins.min((n / 2).max(8)).clamp(2, binned::MAX_BINS)
 }
 
 thread_local! {
@@ -190,6 +195,123 @@ fn exact_split(refs: &[Ref], bounds: &Aabb, ctx: &Ctx) -> Option<Split> {
         }
         best
     })
+}
+
+/// Nodes of at most this many references take the exact search by comparison
+/// ([`small_split`]) instead of sorting their events.
+const SMALL_MAX: usize = 32;
+
+/// The exact search of a node of at most [`SMALL_MAX`] references, without sorting: every bound
+/// of a box is a candidate plane, and its counts come from comparing it with every box, eight
+/// candidates at a time. At a candidate `p` the event sweep ([`events::best_split_on_axis`])
+/// has below it the boxes with `min < p`, above those with `max > p`, and the boxes flat at `p`
+/// go to the cheaper side; so here. The sweep keeps the first of equal costs (axes in order,
+/// positions ascending, −0 before +0); so does this search, and it finds the same plane.
+fn small_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Split> {
+    use wide::f32x8;
+    const CHUNKS: usize = 2 * SMALL_MAX / 8;
+    let n = refs.len();
+    debug_assert!(n <= SMALL_MAX);
+    let chunks = (2 * n).div_ceil(8);
+    let one = f32x8::splat(1.0);
+    let mut best: Option<Split> = None;
+    for axis in 0..3 {
+        let Some(sah) = events::AxisSah::new(bounds, axis, costs) else {
+            continue;
+        };
+        // The candidates: every box's minimum, then its maximum; NaN pads (never inside).
+        let mut cand = [f32::NAN; 2 * SMALL_MAX];
+        for (i, r) in refs.iter().enumerate() {
+            cand[2 * i] = r.bounds.min[axis];
+            cand[2 * i + 1] = r.bounds.max[axis];
+        }
+        let c: [f32x8; CHUNKS] = core::array::from_fn(|k| {
+            f32x8::from(<[f32; 8]>::try_from(&cand[8 * k..8 * k + 8]).unwrap())
+        });
+        let mut below = [f32x8::ZERO; CHUNKS];
+        let mut above = [f32x8::ZERO; CHUNKS];
+        let mut flat = [f32x8::ZERO; CHUNKS];
+        let mut any_flat = false;
+        for r in refs {
+            let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
+            let (l, h) = (f32x8::splat(lo), f32x8::splat(hi));
+            for k in 0..chunks {
+                below[k] += l.simd_lt(c[k]) & one;
+                above[k] += h.simd_gt(c[k]) & one;
+            }
+            if lo == hi {
+                any_flat = true;
+                for k in 0..chunks {
+                    flat[k] += l.simd_eq(c[k]) & one;
+                }
+            }
+        }
+        for k in 0..chunks {
+            // Counts are small whole numbers: converted exactly as vectors (a saturating
+            // scalar cast of each costs some ten instructions).
+            let (nb, na) = (below[k].fast_trunc_int(), above[k].fast_trunc_int());
+            let (nb, na, np) = (nb.to_array(), na.to_array(), flat[k].fast_trunc_int().to_array());
+            let pos: [f32; 8] = core::array::from_fn(|j| cand[8 * k + j]);
+            // Without flat boxes (the usual case) each plane has one price, four at a time.
+            let prices = (!any_flat).then(|| {
+                let q = |h: usize| {
+                    let p4: [f32; 4] = core::array::from_fn(|j| pos[4 * h + j]);
+                    let b4: [usize; 4] = core::array::from_fn(|j| nb[4 * h + j] as usize);
+                    let a4: [usize; 4] = core::array::from_fn(|j| na[4 * h + j] as usize);
+                    sah.cost4(p4, b4, a4)
+                };
+                let (lo, hi) = (q(0), q(1));
+                [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]]
+            });
+            for j in 0..8 {
+                let pos = pos[j];
+                if !sah.inside(pos) {
+                    continue;
+                }
+                let (cost, planar_below) = match prices {
+                    Some(p) => (p[j], true),
+                    None => {
+                        let (nb, na) = (nb[j] as usize, na[j] as usize);
+                        let planars = np[j] as usize;
+                        let lower = sah.cost(pos, nb + planars, na);
+                        if planars == 0 {
+                            (lower, true)
+                        } else {
+                            let upper = sah.cost(pos, nb, na + planars);
+                            if lower <= upper {
+                                (lower, true)
+                            } else {
+                                (upper, false)
+                            }
+                        }
+                    }
+                };
+                let first = |b: &Split| {
+                    cost < b.cost || (cost == b.cost && axis == b.axis && order(pos) < order(b.pos))
+                };
+                if best.as_ref().is_none_or(first) {
+                    best = Some(Split {
+                        axis,
+                        pos,
+                        cost,
+                        planar_below,
+                    });
+                }
+            }
+        }
+    }
+    best
+}
+
+/// The sort order of positions in the event lists ([`Event::key`]): −0 before +0.
+#[inline]
+fn order(pos: f32) -> u64 {
+    Event {
+        pos,
+        prim: 0,
+        kind: 0,
+    }
+    .key()
 }
 
 /// Which way a reference goes: below, above or both (it straddles the plane).
