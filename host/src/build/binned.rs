@@ -16,7 +16,7 @@ use super::clip::Aabb;
 use super::events::{AxisSah, Costs, Split};
 use super::fast::Ref;
 use glam::Vec3;
-use wide::{f32x8, i32x8};
+use wide::{f32x8, f64x4, i32x8};
 
 /// Bins per axis at most ([`Bins`]' stride).
 pub const MAX_BINS: usize = 256;
@@ -216,7 +216,10 @@ impl Bins {
                         (p4[j], b4[j], a4[j]) = (grid.border(b, axis, bounds), below, above);
                     }
                 }
-                let c4 = sah.cost4(p4, b4, a4);
+                let f = |v: [usize; 4]| f64x4::from(v.map(|n| n as f64));
+                let c4 = sah
+                    .cost4(f64x4::from(p4.map(f64::from)), f(b4), f(a4))
+                    .to_array();
                 for j in 0..4 {
                     let pos = p4[j];
                     // Borders outside the contents are priced by the cut-offs above; a

@@ -7,6 +7,7 @@
 //! best plane.
 
 use super::clip::Aabb;
+use wide::f64x4;
 
 pub const END: u8 = 0;
 pub const PLANAR: u8 = 1;
@@ -168,29 +169,26 @@ impl AxisSah {
 }
 
 impl AxisSah {
-    /// [`AxisSah::cost`] of four planes at once, each cost bit for bit the scalar one (the same
-    /// f64 operations, unfused).
+    /// [`AxisSah::cost`] of four planes at once, with `nb` and `na` primitives below and above
+    /// (whole numbers as f64); each cost is bit for bit the scalar one (the same f64 operations,
+    /// unfused; `⌈n/g⌉` as `(n/g).ceil()`, exact for whole numbers below 2⁵²).
     #[inline]
-    pub fn cost4(&self, pos: [f32; 4], nb: [usize; 4], na: [usize; 4]) -> [f64; 4] {
-        use wide::f64x4;
+    pub fn cost4(&self, pos: f64x4, nb: f64x4, na: f64x4) -> f64x4 {
         let c = &self.costs;
-        let pos = f64x4::from(pos.map(f64::from));
         let pb =
             f64x4::splat(self.cap) + f64x4::splat(self.side) * (pos - f64x4::splat(self.lo as f64));
         let pa =
             f64x4::splat(self.cap) + f64x4::splat(self.side) * (f64x4::splat(self.hi as f64) - pos);
-        let tb = f64x4::from(nb.map(|n| c.tests(n)));
-        let ta = f64x4::from(na.map(|n| c.tests(n)));
-        let empty: [f64; 4] = core::array::from_fn(|i| {
-            if nb[i] == 0 || na[i] == 0 {
-                1.0 - c.empty_bonus
-            } else {
-                1.0 - 0.0
-            }
-        });
-        (f64x4::splat(c.traversal)
-            + f64x4::splat(c.intersect) * f64x4::from(empty) * (pb * tb + pa * ta))
-            .to_array()
+        let (tb, ta) = if c.group == 1 {
+            (nb, na)
+        } else {
+            let g = f64x4::splat(c.group as f64);
+            ((nb / g).ceil(), (na / g).ceil())
+        };
+        let empty = nb.simd_eq(f64x4::ZERO) | na.simd_eq(f64x4::ZERO);
+        #[allow(clippy::identity_op)]
+        let factor = empty.select(f64x4::splat(1.0 - c.empty_bonus), f64x4::splat(1.0 - 0.0));
+        f64x4::splat(c.traversal) + f64x4::splat(c.intersect) * factor * (pb * tb + pa * ta)
     }
 }
 
@@ -265,7 +263,9 @@ mod tests {
                 let (lo, hi) = (sah.lo, sah.hi);
                 let pos = [lo, hi, (lo + hi) * 0.5, lo + (hi - lo) * 0.1];
                 for (nb, na) in [([0, 1, 5, 9], [9, 0, 3, 1]), ([2, 7, 0, 13], [0, 0, 4, 8])] {
-                    let four = sah.cost4(pos, nb, na);
+                    let f = |v: [usize; 4]| f64x4::from(v.map(|n| n as f64));
+                    let p4 = f64x4::from(pos.map(f64::from));
+                    let four = sah.cost4(p4, f(nb), f(na)).to_array();
                     for i in 0..4 {
                         assert_eq!(four[i].to_bits(), sah.cost(pos[i], nb[i], na[i]).to_bits());
                     }

@@ -208,23 +208,28 @@ const SMALL_MAX: usize = 32;
 /// go to the cheaper side; so here. The sweep keeps the first of equal costs (axes in order,
 /// positions ascending, −0 before +0); so does this search, and it finds the same plane.
 fn small_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Split> {
-    use wide::f32x8;
+    use wide::{f32x8, f64x4};
     const CHUNKS: usize = 2 * SMALL_MAX / 8;
     let n = refs.len();
     debug_assert!(n <= SMALL_MAX);
     let chunks = (2 * n).div_ceil(8);
     let one = f32x8::splat(1.0);
+    // The candidates on each axis: every box's minimum, then its maximum; NaN pads (never
+    // inside the node).
+    let mut cand = [[f32::NAN; 2 * SMALL_MAX]; 3];
+    {
+        let [x, y, z] = &mut cand;
+        let pairs = x.chunks_exact_mut(2).zip(y.chunks_exact_mut(2));
+        for ((r, (x, y)), z) in refs.iter().zip(pairs).zip(z.chunks_exact_mut(2)) {
+            let (lo, hi) = (r.bounds.min, r.bounds.max);
+            (x[0], x[1], y[0], y[1], z[0], z[1]) = (lo.x, hi.x, lo.y, hi.y, lo.z, hi.z);
+        }
+    }
     let mut best: Option<Split> = None;
-    for axis in 0..3 {
+    for (axis, cand) in cand.iter().enumerate() {
         let Some(sah) = events::AxisSah::new(bounds, axis, costs) else {
             continue;
         };
-        // The candidates: every box's minimum, then its maximum; NaN pads (never inside).
-        let mut cand = [f32::NAN; 2 * SMALL_MAX];
-        for (i, r) in refs.iter().enumerate() {
-            cand[2 * i] = r.bounds.min[axis];
-            cand[2 * i + 1] = r.bounds.max[axis];
-        }
         let c: [f32x8; CHUNKS] = core::array::from_fn(|k| {
             f32x8::from(<[f32; 8]>::try_from(&cand[8 * k..8 * k + 8]).unwrap())
         });
@@ -232,8 +237,8 @@ fn small_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Spl
         let mut above = [f32x8::ZERO; CHUNKS];
         let mut flat = [f32x8::ZERO; CHUNKS];
         let mut any_flat = false;
-        for r in refs {
-            let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
+        for pair in cand[..2 * n].chunks_exact(2) {
+            let (lo, hi) = (pair[0], pair[1]);
             let (l, h) = (f32x8::splat(lo), f32x8::splat(hi));
             for k in 0..chunks {
                 below[k] += l.simd_lt(c[k]) & one;
@@ -246,33 +251,35 @@ fn small_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Spl
                 }
             }
         }
+        let (lo, hi) = (f32x8::splat(sah.lo), f32x8::splat(sah.hi));
         for k in 0..chunks {
-            // Counts are small whole numbers: converted exactly as vectors (a saturating
-            // scalar cast of each costs some ten instructions).
-            let (nb, na) = (below[k].fast_trunc_int(), above[k].fast_trunc_int());
-            let (nb, na, np) = (nb.to_array(), na.to_array(), flat[k].fast_trunc_int().to_array());
-            let pos: [f32; 8] = core::array::from_fn(|j| cand[8 * k + j]);
+            // The planes strictly inside the node (NaN pads are not).
+            let mut inside = (c[k].simd_gt(lo) & c[k].simd_lt(hi)).to_bitmask();
+            if inside == 0 {
+                continue;
+            }
+            let pos = c[k].to_array();
+            let (nb, na, np) = (below[k].to_array(), above[k].to_array(), flat[k].to_array());
             // Without flat boxes (the usual case) each plane has one price, four at a time.
             let prices = (!any_flat).then(|| {
                 let q = |h: usize| {
-                    let p4: [f32; 4] = core::array::from_fn(|j| pos[4 * h + j]);
-                    let b4: [usize; 4] = core::array::from_fn(|j| nb[4 * h + j] as usize);
-                    let a4: [usize; 4] = core::array::from_fn(|j| na[4 * h + j] as usize);
-                    sah.cost4(p4, b4, a4)
+                    let f =
+                        |v: &[f32; 8]| f64x4::from(core::array::from_fn(|j| v[4 * h + j] as f64));
+                    sah.cost4(f(&pos), f(&nb), f(&na)).to_array()
                 };
-                let (lo, hi) = (q(0), q(1));
-                [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]]
+                let (l, h) = (q(0), q(1));
+                [l[0], l[1], l[2], l[3], h[0], h[1], h[2], h[3]]
             });
-            for j in 0..8 {
+            while inside != 0 {
+                let j = inside.trailing_zeros() as usize;
+                inside &= inside - 1;
                 let pos = pos[j];
-                if !sah.inside(pos) {
-                    continue;
-                }
                 let (cost, planar_below) = match prices {
                     Some(p) => (p[j], true),
                     None => {
-                        let (nb, na) = (nb[j] as usize, na[j] as usize);
-                        let planars = np[j] as usize;
+                        // Whole numbers below 2²⁴: exact as u32.
+                        let (nb, na) = (nb[j] as u32 as usize, na[j] as u32 as usize);
+                        let planars = np[j] as u32 as usize;
                         let lower = sah.cost(pos, nb + planars, na);
                         if planars == 0 {
                             (lower, true)
