@@ -213,7 +213,6 @@ fn small_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Spl
     let n = refs.len();
     debug_assert!(n <= SMALL_MAX);
     let chunks = (2 * n).div_ceil(8);
-    let one = f32x8::splat(1.0);
     // The candidates on each axis: every box's minimum, then its maximum; NaN pads (never
     // inside the node).
     let mut cand = [[f32::NAN; 2 * SMALL_MAX]; 3];
@@ -233,24 +232,20 @@ fn small_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Spl
         let c: [f32x8; CHUNKS] = core::array::from_fn(|k| {
             f32x8::from(<[f32; 8]>::try_from(&cand[8 * k..8 * k + 8]).unwrap())
         });
-        let mut below = [f32x8::ZERO; CHUNKS];
-        let mut above = [f32x8::ZERO; CHUNKS];
+        let (mut below, mut above) = ([f32x8::ZERO; CHUNKS], [f32x8::ZERO; CHUNKS]);
         let mut flat = [f32x8::ZERO; CHUNKS];
-        let mut any_flat = false;
-        for pair in cand[..2 * n].chunks_exact(2) {
-            let (lo, hi) = (pair[0], pair[1]);
-            let (l, h) = (f32x8::splat(lo), f32x8::splat(hi));
-            for k in 0..chunks {
-                below[k] += l.simd_lt(c[k]) & one;
-                above[k] += h.simd_gt(c[k]) & one;
-            }
-            if lo == hi {
-                any_flat = true;
-                for k in 0..chunks {
-                    flat[k] += l.simd_eq(c[k]) & one;
-                }
-            }
-        }
+        let boxes = &cand[..2 * n];
+        // A loop of a known length per count of candidates, unrolled.
+        let any_flat = match chunks {
+            1 => count::<1>(boxes, &c, &mut below, &mut above, &mut flat),
+            2 => count::<2>(boxes, &c, &mut below, &mut above, &mut flat),
+            3 => count::<3>(boxes, &c, &mut below, &mut above, &mut flat),
+            4 => count::<4>(boxes, &c, &mut below, &mut above, &mut flat),
+            5 => count::<5>(boxes, &c, &mut below, &mut above, &mut flat),
+            6 => count::<6>(boxes, &c, &mut below, &mut above, &mut flat),
+            7 => count::<7>(boxes, &c, &mut below, &mut above, &mut flat),
+            _ => count::<8>(boxes, &c, &mut below, &mut above, &mut flat),
+        };
         let (lo, hi) = (f32x8::splat(sah.lo), f32x8::splat(sah.hi));
         for k in 0..chunks {
             // The planes strictly inside the node (NaN pads are not).
@@ -308,6 +303,41 @@ fn small_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Spl
         }
     }
     best
+}
+
+/// For the first `C` chunks of candidates `c`, adds up the boxes (`boxes`: min, max pairs on
+/// one axis) below each candidate (`min < p`), above it (`max > p`) and flat on it; returns
+/// whether any box is flat.
+#[inline(always)]
+fn count<const C: usize>(
+    boxes: &[f32],
+    c: &[wide::f32x8; 2 * SMALL_MAX / 8],
+    below: &mut [wide::f32x8; 2 * SMALL_MAX / 8],
+    above: &mut [wide::f32x8; 2 * SMALL_MAX / 8],
+    flat: &mut [wide::f32x8; 2 * SMALL_MAX / 8],
+) -> bool {
+    use wide::f32x8;
+    let one = f32x8::splat(1.0);
+    let c: [f32x8; C] = core::array::from_fn(|k| c[k]);
+    let (mut b, mut a) = ([f32x8::ZERO; C], [f32x8::ZERO; C]);
+    let mut any_flat = false;
+    for pair in boxes.chunks_exact(2) {
+        let (lo, hi) = (pair[0], pair[1]);
+        let (l, h) = (f32x8::splat(lo), f32x8::splat(hi));
+        for k in 0..C {
+            b[k] += l.simd_lt(c[k]) & one;
+            a[k] += h.simd_gt(c[k]) & one;
+        }
+        if lo == hi {
+            any_flat = true;
+            for k in 0..C {
+                flat[k] += l.simd_eq(c[k]) & one;
+            }
+        }
+    }
+    below[..C].copy_from_slice(&b);
+    above[..C].copy_from_slice(&a);
+    any_flat
 }
 
 /// The sort order of positions in the event lists ([`Event::key`]): −0 before +0.
