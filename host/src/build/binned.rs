@@ -284,3 +284,47 @@ fn count_parallel(refs: &[Ref], grid: &Grid) -> Bins {
         .reduce_with(|a, b| a.merge(&b))
         .unwrap_or_else(|| Bins::new(grid.bins))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_bound_lands_in_a_bin_of_its_row() {
+        let bounds = Aabb {
+            min: Vec3::new(-1.0, 0.0, 1e-30),
+            max: Vec3::new(1.0, 0.0, 3e38),
+        };
+        let b = |lo: f32, hi: f32| Ref {
+            id: 0,
+            bounds: Aabb {
+                min: Vec3::splat(lo),
+                max: Vec3::splat(hi),
+            },
+        };
+        // Outside the box (rounding), on its walls, at the extremes of f32 and denormal.
+        let refs = [
+            b(-3e38, 3e38),
+            b(-1.0, 1.0),
+            b(-1.5, -1.2),
+            b(1.2, 1.5),
+            b(0.0, 0.0),
+            b(-0.0, 1e-45),
+            b(f32::MIN, f32::MAX),
+            b(f32::NEG_INFINITY, f32::INFINITY),
+        ];
+        for bins in [2, 3, 32, MAX_BINS] {
+            let grid = Grid::new(&bounds, bins);
+            let mut counts = Bins::new(bins);
+            counts.add(&refs, &grid);
+            for row in 0..6 {
+                let total: u32 = counts.row(row).iter().sum();
+                assert_eq!(total as usize, refs.len(), "bins {bins}, row {row}");
+            }
+            // Below the box: the first bin; past it: the last.
+            let mut one = Bins::new(bins);
+            one.add(&refs[2..4], &grid);
+            assert_eq!((one.row(0)[0], one.row(3)[bins - 1]), (1, 1));
+        }
+    }
+}

@@ -102,7 +102,7 @@ fn build_node(
         let best = if n <= SMALL_MAX {
             small_split(refs, &bounds, &ctx.costs)
         } else {
-            exact_split(refs, &bounds, ctx)
+            exact_split(refs, &bounds, &ctx.costs)
         };
         (best, None)
     };
@@ -174,7 +174,7 @@ thread_local! {
 /// The exact sweep of a small node: its boxes' events sorted on each axis. The sweep needs no
 /// primitive ids, so the events are sorted as their bare keys (integers: a third of the time of
 /// sorting events by a computed key).
-fn exact_split(refs: &[Ref], bounds: &Aabb, ctx: &Ctx) -> Option<Split> {
+fn exact_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Split> {
     EXACT.with_borrow_mut(|(keys, list)| {
         let mut best: Option<Split> = None;
         for axis in 0..3 {
@@ -187,7 +187,7 @@ fn exact_split(refs: &[Ref], bounds: &Aabb, ctx: &Ctx) -> Option<Split> {
             keys.sort_unstable();
             list.clear();
             list.extend(keys.iter().map(|&k| Event::from_key(k, 0)));
-            if let Some(s) = events::best_split_on_axis(list, refs.len(), bounds, axis, &ctx.costs)
+            if let Some(s) = events::best_split_on_axis(list, refs.len(), bounds, axis, costs)
                 && best.is_none_or(|b| s.cost < b.cost)
             {
                 best = Some(s);
@@ -425,4 +425,101 @@ fn partition(
         stack.extend_from_slice(below);
         (below.len(), na)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use events::Costs;
+    use glam::Vec3;
+
+    /// A deterministic generator (SplitMix64).
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+
+        fn below(&mut self, n: usize) -> usize {
+            (self.next() % n as u64) as usize
+        }
+    }
+
+    /// Random boxes in `bounds`, their bounds drawn from a few values (so that boxes share
+    /// bounds, lie flat, touch the node's walls, and sit on ±0), at scale `s`.
+    fn boxes(rng: &mut Rng, n: usize, s: f32) -> Vec<Ref> {
+        let values = [-4.0, -1.5, -0.0, 0.0, 0.25, 1.0, 2.5, 3.0, 4.0].map(|v: f32| v * s);
+        (0..n)
+            .map(|i| {
+                let mut pick = || {
+                    let (a, b) = (values[rng.below(9)], values[rng.below(9)]);
+                    // One box in five flat on the axis.
+                    if rng.below(5) == 0 {
+                        (a, a)
+                    } else {
+                        (a.min(b), a.max(b))
+                    }
+                };
+                let (x, y, z) = (pick(), pick(), pick());
+                Ref {
+                    id: i as u32,
+                    bounds: Aabb {
+                        min: Vec3::new(x.0, y.0, z.0),
+                        max: Vec3::new(x.1, y.1, z.1),
+                    },
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_small_search_finds_the_sweeps_plane() {
+        let mut rng = Rng(7);
+        for group in [1, 4] {
+            let costs = Costs {
+                traversal: 1.0,
+                intersect: 80.0,
+                empty_bonus: 0.5,
+                group,
+            };
+            for s in [1.0, 1e-30, 1e30, 3e-39] {
+                let bounds = Aabb {
+                    min: Vec3::splat(-4.0 * s),
+                    max: Vec3::splat(4.0 * s),
+                };
+                for n in (1..=SMALL_MAX).chain([SMALL_MAX; 40]) {
+                    let refs = boxes(&mut rng, n, s);
+                    let (small, sweep) = (
+                        small_split(&refs, &bounds, &costs),
+                        exact_split(&refs, &bounds, &costs),
+                    );
+                    let bits = |s: Option<Split>| {
+                        s.map(|s| (s.axis, s.pos.to_bits(), s.cost.to_bits(), s.planar_below))
+                    };
+                    assert_eq!(bits(small), bits(sweep), "n {n}, scale {s}, group {group}");
+                }
+            }
+            // All boxes the same, and a flat node (no depth on z).
+            let same = vec![boxes(&mut Rng(1), 1, 1.0)[0]; SMALL_MAX];
+            let flat = Aabb {
+                min: Vec3::new(-4.0, -4.0, 0.0),
+                max: Vec3::new(4.0, 4.0, 0.0),
+            };
+            let bounds = Aabb {
+                min: Vec3::splat(-4.0),
+                max: Vec3::splat(4.0),
+            };
+            for (refs, bounds) in [(same, bounds), (boxes(&mut rng, 20, 1.0), flat)] {
+                assert_eq!(
+                    small_split(&refs, &bounds, &costs),
+                    exact_split(&refs, &bounds, &costs)
+                );
+            }
+        }
+    }
 }
