@@ -25,7 +25,7 @@ pub const MAX_BINS: usize = 256;
 ///
 /// The counts are one array of eight rows of [`MAX_BINS`]: rows 0–2 the starts on x, y, z,
 /// rows 3–5 the ends, 6–7 unused. A box's six bins are then one 8-lane computation
-/// ([`Grid::index`]) and six increments, each index below the array's length by construction.
+/// (`Grid::index`) and six increments, each index below the array's length by construction.
 #[derive(Clone)]
 pub struct Bins {
     bins: usize,

@@ -3,8 +3,10 @@
 //! box, instead of three sorted event lists.
 //!
 //! Per node: a node of at least [`FastParams::bin_min`] references finds its plane by binning
-//! ([`super::binned`], [`FastParams::bins`] bins per axis); a smaller one sorts its boxes' events
-//! and sweeps them exactly ([`events::best_split_on_axis`]). The partition compares each box with
+//! ([`super::binned`], [`FastParams::bins`] bins per axis); a smaller one searches exactly: up
+//! to `SMALL_MAX` (32) references by comparing every candidate plane with every box
+//! (`small_split`), above that by sorting its boxes' events and sweeping them
+//! ([`events::best_split_on_axis`]); both find the same plane. The partition compares each box with
 //! the plane; a straddling primitive is clipped exactly to each child (perfect splits,
 //! [`super::clip::clip_triangle`]) in nodes of at least [`FastParams::clip_min`] references, and
 //! below that (by default everywhere) split by the plane alone ([`super::clip::split_triangle`]:
@@ -20,7 +22,8 @@
 //!
 //! What it saves: the event builder splits three event lists at every level, some 20–30 levels
 //! for each triangle; here a node costs a pass over its boxes to bin them and one to partition
-//! them, and only the smallest nodes sort their events' keys (docs/BUILD.md, "Quality").
+//! them, and the smallest nodes compare their boxes with their candidate planes (docs/BUILD.md,
+//! "Quality" and "`fast`, third pass").
 
 use super::clip::Aabb;
 use super::events::{self, Event, Split};
@@ -36,7 +39,8 @@ pub struct Ref {
 /// The `fast` builder's settings; the defaults were measured (docs/BUILD.md, "Quality").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FastParams {
-    /// Bins per axis of the binned split search (at least 2).
+    /// Bins per axis of the binned split search (at least 2, at most
+    /// [`binned::MAX_BINS`](super::binned::MAX_BINS) = 256).
     pub bins: usize,
     /// Nodes of at least this many references are binned; smaller ones are swept exactly.
     pub bin_min: usize,
