@@ -15,47 +15,89 @@
 use super::clip::Aabb;
 use super::events::{AxisSah, Costs, Split};
 use super::fast::Ref;
+use glam::Vec3;
+use wide::{f32x8, f64x4, i32x8};
+
+/// Bins per axis at most ([`Bins`]' stride).
+pub const MAX_BINS: usize = 256;
 
 /// Per-axis start and end counts over `bins` bins, and the contents' extent.
+///
+/// The counts are one array of eight rows of [`MAX_BINS`]: rows 0–2 the starts on x, y, z,
+/// rows 3–5 the ends, 6–7 unused. A box's six bins are then one 8-lane computation
+/// (`Grid::index`) and six increments, each index below the array's length by construction.
 #[derive(Clone)]
 pub struct Bins {
     bins: usize,
-    /// `starts[axis * bins + i]`, likewise `ends`.
-    starts: Vec<u32>,
-    ends: Vec<u32>,
+    counts: Box<[u32; 8 * MAX_BINS]>,
     /// The union of the binned boxes.
     contents: Aabb,
 }
 
-/// Where a node's box puts its bins: per axis, the low bound and bins per unit length.
+/// Where a node's box puts its bins, for the six bounds of a box at once: per lane (min x, y, z,
+/// max x, y, z, two unused), the low bound, bins per unit length, and the lane's row in
+/// [`Bins`]' counts.
 #[derive(Clone, Copy)]
 pub struct Grid {
-    lo: [f32; 3],
-    scale: [f32; 3],
+    lo: f32x8,
+    scale: f32x8,
+    last: f32x8,
+    row: i32x8,
     bins: usize,
+}
+
+/// A box as eight lanes: its minimum, its maximum, and two zeros.
+#[inline]
+fn lanes(b: &Aabb) -> f32x8 {
+    f32x8::from([
+        b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z, 0.0, 0.0,
+    ])
 }
 
 impl Grid {
     pub fn new(bounds: &Aabb, bins: usize) -> Self {
-        let scale = core::array::from_fn(|a| {
+        debug_assert!((2..=MAX_BINS).contains(&bins));
+        let scale: [f32; 3] = core::array::from_fn(|a| {
             let extent = bounds.max[a] - bounds.min[a];
             let s = bins as f32 / extent;
             if s.is_finite() { s } else { 0.0 }
         });
+        let lo = bounds.min;
+        let row = |r: i32| r * MAX_BINS as i32;
         Self {
-            lo: bounds.min.to_array(),
-            scale,
+            lo: f32x8::from([lo.x, lo.y, lo.z, lo.x, lo.y, lo.z, 0.0, 0.0]),
+            scale: f32x8::from([
+                scale[0], scale[1], scale[2], scale[0], scale[1], scale[2], 0.0, 0.0,
+            ]),
+            last: f32x8::splat((bins - 1) as f32),
+            row: i32x8::from([
+                row(0),
+                row(1),
+                row(2),
+                row(3),
+                row(4),
+                row(5),
+                row(6),
+                row(7),
+            ]),
             bins,
         }
     }
 
+    /// The count indices of a box's six bounds (lanes 0–5; 6 and 7 point at unused rows). A
+    /// bound below the box (rounding) goes to bin 0, one past it to the last: the position is
+    /// clamped as a float (infinities included) and again as an integer, so that no input, NaN
+    /// included, gives an index outside its row.
     #[inline]
-    fn bin(&self, x: f32, axis: usize) -> usize {
-        // Clamped as an i32, which costs a third of a saturating cast to usize: a bound below
-        // the box (rounding) goes to bin 0, one past it to the last; NaN cannot occur (finite
-        // input).
-        let b = ((x - self.lo[axis]) * self.scale[axis]) as i32;
-        b.clamp(0, self.bins as i32 - 1) as usize
+    fn index(&self, b: f32x8) -> [i32; 8] {
+        let t = ((b - self.lo) * self.scale)
+            .fast_max(f32x8::ZERO)
+            .fast_min(self.last);
+        let bin = t
+            .fast_trunc_int()
+            .max(i32x8::ZERO)
+            .min(i32x8::splat(self.bins as i32 - 1));
+        (bin + self.row).to_array()
     }
 
     /// The border below bin `b`.
@@ -64,63 +106,66 @@ impl Grid {
         let t = b as f32 / self.bins as f32;
         bounds.min[axis] + (bounds.max[axis] - bounds.min[axis]) * t
     }
+
+    fn scale(&self, axis: usize) -> f32 {
+        self.scale.to_array()[axis]
+    }
 }
 
 impl Bins {
     pub fn new(bins: usize) -> Self {
         Self {
             bins,
-            starts: vec![0; 3 * bins],
-            ends: vec![0; 3 * bins],
+            counts: Box::new([0; 8 * MAX_BINS]),
             contents: Aabb::EMPTY,
         }
     }
 
     /// Empties the bins and makes them `bins` a axis.
     fn reset(&mut self, bins: usize) {
-        self.bins = bins;
-        for v in [&mut self.starts, &mut self.ends] {
-            v.clear();
-            v.resize(3 * bins, 0);
+        for row in 0..6 {
+            self.counts[row * MAX_BINS..row * MAX_BINS + self.bins.max(bins)].fill(0);
         }
+        self.bins = bins;
         self.contents = Aabb::EMPTY;
+    }
+
+    /// The counts of row `row` (0–2 starts, 3–5 ends).
+    fn row(&self, row: usize) -> &[u32] {
+        &self.counts[row * MAX_BINS..row * MAX_BINS + self.bins]
     }
 
     /// Counts `refs` into the bins of `grid`.
     pub fn add(&mut self, refs: &[Ref], grid: &Grid) {
-        let k = self.bins;
-        let (mut lo, mut hi) = (self.contents.min.to_array(), self.contents.max.to_array());
-        // One slice per axis and kind, each `k` long, so that a bin index clamped to `k - 1`
-        // needs no bounds check.
-        let (s0, rest) = self.starts.split_at_mut(k);
-        let (s1, s2) = rest.split_at_mut(k);
-        let (e0, rest) = self.ends.split_at_mut(k);
-        let (e1, e2) = rest.split_at_mut(k);
-        let starts = [s0, s1, &mut s2[..k]];
-        let ends = [e0, e1, &mut e2[..k]];
-        let last = k - 1;
+        let c = &mut *self.counts;
+        // The contents: the minimum of lanes 0–2 and the maximum of lanes 3–5.
+        let (mut lo, mut hi) = (f32x8::splat(f32::INFINITY), f32x8::splat(f32::NEG_INFINITY));
         for r in refs {
-            let (bmin, bmax) = (r.bounds.min.to_array(), r.bounds.max.to_array());
-            for axis in 0..3 {
-                starts[axis][grid.bin(bmin[axis], axis).min(last)] += 1;
-                ends[axis][grid.bin(bmax[axis], axis).min(last)] += 1;
-                lo[axis] = lo[axis].min(bmin[axis]);
-                hi[axis] = hi[axis].max(bmax[axis]);
+            let b = lanes(&r.bounds);
+            lo = lo.fast_min(b);
+            hi = hi.fast_max(b);
+            let i = grid.index(b);
+            // Masked to the array's length (a no-op: the indices are in range) so that the
+            // increments need no bounds checks.
+            for &i in &i[..6] {
+                c[i as usize & (8 * MAX_BINS - 1)] += 1;
             }
         }
-        self.contents = Aabb {
-            min: lo.into(),
-            max: hi.into(),
+        let (lo, hi) = (lo.to_array(), hi.to_array());
+        let contents = Aabb {
+            min: Vec3::new(lo[0], lo[1], lo[2]),
+            max: Vec3::new(hi[3], hi[4], hi[5]),
         };
+        self.contents = self.contents.union(&contents);
     }
 
     /// The sum of two partial binnings of one node.
     pub fn merge(mut self, other: &Bins) -> Bins {
-        for (a, b) in self.starts.iter_mut().zip(&other.starts) {
-            *a += b;
-        }
-        for (a, b) in self.ends.iter_mut().zip(&other.ends) {
-            *a += b;
+        for row in 0..6 {
+            let r = row * MAX_BINS..row * MAX_BINS + self.bins;
+            for (a, b) in self.counts[r.clone()].iter_mut().zip(&other.counts[r]) {
+                *a += b;
+            }
         }
         self.contents = self.contents.union(&other.contents);
         self
@@ -140,7 +185,7 @@ impl Bins {
             let Some(sah) = AxisSah::new(bounds, axis, costs) else {
                 continue;
             };
-            if grid.scale[axis] == 0.0 {
+            if grid.scale(axis) == 0.0 {
                 continue;
             }
             // Cut-offs of the empty space around the contents: every primitive on one side
@@ -157,23 +202,36 @@ impl Bins {
                     });
                 }
             }
-            let starts = &self.starts[axis * k..(axis + 1) * k];
-            let ends = &self.ends[axis * k..(axis + 1) * k];
-            let (mut nb, mut na) = (0usize, n);
-            for b in 1..k {
-                nb += starts[b - 1] as usize;
-                na -= ends[b - 1] as usize;
-                let pos = grid.border(b, axis, bounds);
-                // Borders outside the contents are priced by the cut-offs above.
-                if sah.inside(pos) && pos > cmin && pos < cmax {
-                    // A primitive flat on a border counts in the bin above it.
-                    let cost = sah.cost(pos, nb, na);
-                    consider(Split {
-                        axis,
-                        pos,
-                        cost,
-                        planar_below: false,
-                    });
+            let (starts, ends) = (self.row(axis), self.row(3 + axis));
+            // The borders' counts, then their prices four at a time (priced in order, so the
+            // first of equal costs wins, as before).
+            let (mut below, mut above) = (0usize, n);
+            for q in (1..k).step_by(4) {
+                let (mut p4, mut b4, mut a4) = ([f32::NAN; 4], [0usize; 4], [0usize; 4]);
+                for j in 0..4 {
+                    let b = q + j;
+                    if b < k {
+                        below += starts[b - 1] as usize;
+                        above -= ends[b - 1] as usize;
+                        (p4[j], b4[j], a4[j]) = (grid.border(b, axis, bounds), below, above);
+                    }
+                }
+                let f = |v: [usize; 4]| f64x4::from(v.map(|n| n as f64));
+                let c4 = sah
+                    .cost4(f64x4::from(p4.map(f64::from)), f(b4), f(a4))
+                    .to_array();
+                for j in 0..4 {
+                    let pos = p4[j];
+                    // Borders outside the contents are priced by the cut-offs above; a
+                    // primitive flat on a border counts in the bin above it.
+                    if sah.inside(pos) && pos > cmin && pos < cmax {
+                        consider(Split {
+                            axis,
+                            pos,
+                            cost: c4[j],
+                            planar_below: false,
+                        });
+                    }
                 }
             }
         }
@@ -225,4 +283,48 @@ fn count_parallel(refs: &[Ref], grid: &Grid) -> Bins {
         })
         .reduce_with(|a, b| a.merge(&b))
         .unwrap_or_else(|| Bins::new(grid.bins))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_bound_lands_in_a_bin_of_its_row() {
+        let bounds = Aabb {
+            min: Vec3::new(-1.0, 0.0, 1e-30),
+            max: Vec3::new(1.0, 0.0, 3e38),
+        };
+        let b = |lo: f32, hi: f32| Ref {
+            id: 0,
+            bounds: Aabb {
+                min: Vec3::splat(lo),
+                max: Vec3::splat(hi),
+            },
+        };
+        // Outside the box (rounding), on its walls, at the extremes of f32 and denormal.
+        let refs = [
+            b(-3e38, 3e38),
+            b(-1.0, 1.0),
+            b(-1.5, -1.2),
+            b(1.2, 1.5),
+            b(0.0, 0.0),
+            b(-0.0, 1e-45),
+            b(f32::MIN, f32::MAX),
+            b(f32::NEG_INFINITY, f32::INFINITY),
+        ];
+        for bins in [2, 3, 32, MAX_BINS] {
+            let grid = Grid::new(&bounds, bins);
+            let mut counts = Bins::new(bins);
+            counts.add(&refs, &grid);
+            for row in 0..6 {
+                let total: u32 = counts.row(row).iter().sum();
+                assert_eq!(total as usize, refs.len(), "bins {bins}, row {row}");
+            }
+            // Below the box: the first bin; past it: the last.
+            let mut one = Bins::new(bins);
+            one.add(&refs[2..4], &grid);
+            assert_eq!((one.row(0)[0], one.row(3)[bins - 1]), (1, 1));
+        }
+    }
 }

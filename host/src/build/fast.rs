@@ -3,8 +3,10 @@
 //! box, instead of three sorted event lists.
 //!
 //! Per node: a node of at least [`FastParams::bin_min`] references finds its plane by binning
-//! ([`super::binned`], [`FastParams::bins`] bins per axis); a smaller one sorts its boxes' events
-//! and sweeps them exactly ([`events::best_split_on_axis`]). The partition compares each box with
+//! ([`super::binned`], [`FastParams::bins`] bins per axis); a smaller one searches exactly: up
+//! to `SMALL_MAX` (32) references by comparing every candidate plane with every box
+//! (`small_split`), above that by sorting its boxes' events and sweeping them
+//! ([`events::best_split_on_axis`]); both find the same plane. The partition compares each box with
 //! the plane; a straddling primitive is clipped exactly to each child (perfect splits,
 //! [`super::clip::clip_triangle`]) in nodes of at least [`FastParams::clip_min`] references, and
 //! below that (by default everywhere) split by the plane alone ([`super::clip::split_triangle`]:
@@ -20,7 +22,8 @@
 //!
 //! What it saves: the event builder splits three event lists at every level, some 20–30 levels
 //! for each triangle; here a node costs a pass over its boxes to bin them and one to partition
-//! them, and only the smallest nodes sort their events' keys (docs/BUILD.md, "Quality").
+//! them, and the smallest nodes compare their boxes with their candidate planes (docs/BUILD.md,
+//! "Quality" and "`fast`, third pass").
 
 use super::clip::Aabb;
 use super::events::{self, Event, Split};
@@ -36,7 +39,8 @@ pub struct Ref {
 /// The `fast` builder's settings; the defaults were measured (docs/BUILD.md, "Quality").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FastParams {
-    /// Bins per axis of the binned split search (at least 2).
+    /// Bins per axis of the binned split search (at least 2, at most
+    /// [`binned::MAX_BINS`](super::binned::MAX_BINS) = 256).
     pub bins: usize,
     /// Nodes of at least this many references are binned; smaller ones are swept exactly.
     pub bin_min: usize,
@@ -99,7 +103,12 @@ fn build_node(
             None => (None, None),
         }
     } else {
-        (exact_split(refs, &bounds, ctx), None)
+        let best = if n <= SMALL_MAX {
+            small_split(refs, &bounds, &ctx.costs)
+        } else {
+            exact_split(refs, &bounds, &ctx.costs)
+        };
+        (best, None)
     };
     let Some((split, bad_refines)) = best.and_then(|s| ctx.accept(s, n, bad_refines)) else {
         return leaf(stack);
@@ -157,7 +166,7 @@ fn build_node(
 /// Bins for a node of `n` references: `bins`, or fewer for small nodes (at least 8), whose
 /// pricing would otherwise cost more than their counting.
 fn bins_for(n: usize, bins: usize) -> usize {
-    bins.min((n / 2).max(8)).max(2)
+    bins.min((n / 2).max(8)).clamp(2, binned::MAX_BINS)
 }
 
 thread_local! {
@@ -169,7 +178,7 @@ thread_local! {
 /// The exact sweep of a small node: its boxes' events sorted on each axis. The sweep needs no
 /// primitive ids, so the events are sorted as their bare keys (integers: a third of the time of
 /// sorting events by a computed key).
-fn exact_split(refs: &[Ref], bounds: &Aabb, ctx: &Ctx) -> Option<Split> {
+fn exact_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Split> {
     EXACT.with_borrow_mut(|(keys, list)| {
         let mut best: Option<Split> = None;
         for axis in 0..3 {
@@ -182,7 +191,7 @@ fn exact_split(refs: &[Ref], bounds: &Aabb, ctx: &Ctx) -> Option<Split> {
             keys.sort_unstable();
             list.clear();
             list.extend(keys.iter().map(|&k| Event::from_key(k, 0)));
-            if let Some(s) = events::best_split_on_axis(list, refs.len(), bounds, axis, &ctx.costs)
+            if let Some(s) = events::best_split_on_axis(list, refs.len(), bounds, axis, costs)
                 && best.is_none_or(|b| s.cost < b.cost)
             {
                 best = Some(s);
@@ -190,6 +199,160 @@ fn exact_split(refs: &[Ref], bounds: &Aabb, ctx: &Ctx) -> Option<Split> {
         }
         best
     })
+}
+
+/// Nodes of at most this many references take the exact search by comparison
+/// ([`small_split`]) instead of sorting their events.
+const SMALL_MAX: usize = 32;
+
+/// The exact search of a node of at most [`SMALL_MAX`] references, without sorting: every bound
+/// of a box is a candidate plane, and its counts come from comparing it with every box, eight
+/// candidates at a time. At a candidate `p` the event sweep ([`events::best_split_on_axis`])
+/// has below it the boxes with `min < p`, above those with `max > p`, and the boxes flat at `p`
+/// go to the cheaper side; so here. The sweep keeps the first of equal costs (axes in order,
+/// positions ascending, −0 before +0); so does this search, and it finds the same plane.
+fn small_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Split> {
+    use wide::{f32x8, f64x4};
+    const CHUNKS: usize = 2 * SMALL_MAX / 8;
+    let n = refs.len();
+    debug_assert!(n <= SMALL_MAX);
+    let chunks = (2 * n).div_ceil(8);
+    // The candidates on each axis: every box's minimum, then its maximum; NaN pads (never
+    // inside the node).
+    let mut cand = [[f32::NAN; 2 * SMALL_MAX]; 3];
+    {
+        let [x, y, z] = &mut cand;
+        let pairs = x.chunks_exact_mut(2).zip(y.chunks_exact_mut(2));
+        for ((r, (x, y)), z) in refs.iter().zip(pairs).zip(z.chunks_exact_mut(2)) {
+            let (lo, hi) = (r.bounds.min, r.bounds.max);
+            (x[0], x[1], y[0], y[1], z[0], z[1]) = (lo.x, hi.x, lo.y, hi.y, lo.z, hi.z);
+        }
+    }
+    let mut best: Option<Split> = None;
+    for (axis, cand) in cand.iter().enumerate() {
+        let Some(sah) = events::AxisSah::new(bounds, axis, costs) else {
+            continue;
+        };
+        let c: [f32x8; CHUNKS] = core::array::from_fn(|k| {
+            f32x8::from(<[f32; 8]>::try_from(&cand[8 * k..8 * k + 8]).unwrap())
+        });
+        let (mut below, mut above) = ([f32x8::ZERO; CHUNKS], [f32x8::ZERO; CHUNKS]);
+        let mut flat = [f32x8::ZERO; CHUNKS];
+        let boxes = &cand[..2 * n];
+        // A loop of a known length per count of candidates, unrolled.
+        let any_flat = match chunks {
+            1 => count::<1>(boxes, &c, &mut below, &mut above, &mut flat),
+            2 => count::<2>(boxes, &c, &mut below, &mut above, &mut flat),
+            3 => count::<3>(boxes, &c, &mut below, &mut above, &mut flat),
+            4 => count::<4>(boxes, &c, &mut below, &mut above, &mut flat),
+            5 => count::<5>(boxes, &c, &mut below, &mut above, &mut flat),
+            6 => count::<6>(boxes, &c, &mut below, &mut above, &mut flat),
+            7 => count::<7>(boxes, &c, &mut below, &mut above, &mut flat),
+            _ => count::<8>(boxes, &c, &mut below, &mut above, &mut flat),
+        };
+        let (lo, hi) = (f32x8::splat(sah.lo), f32x8::splat(sah.hi));
+        for k in 0..chunks {
+            // The planes strictly inside the node (NaN pads are not).
+            let mut inside = (c[k].simd_gt(lo) & c[k].simd_lt(hi)).to_bitmask();
+            if inside == 0 {
+                continue;
+            }
+            let pos = c[k].to_array();
+            let (nb, na, np) = (below[k].to_array(), above[k].to_array(), flat[k].to_array());
+            // Without flat boxes (the usual case) each plane has one price, four at a time.
+            let prices = (!any_flat).then(|| {
+                let q = |h: usize| {
+                    let f =
+                        |v: &[f32; 8]| f64x4::from(core::array::from_fn(|j| v[4 * h + j] as f64));
+                    sah.cost4(f(&pos), f(&nb), f(&na)).to_array()
+                };
+                let (l, h) = (q(0), q(1));
+                [l[0], l[1], l[2], l[3], h[0], h[1], h[2], h[3]]
+            });
+            while inside != 0 {
+                let j = inside.trailing_zeros() as usize;
+                inside &= inside - 1;
+                let pos = pos[j];
+                let (cost, planar_below) = match prices {
+                    Some(p) => (p[j], true),
+                    None => {
+                        // Whole numbers below 2²⁴: exact as u32.
+                        let (nb, na) = (nb[j] as u32 as usize, na[j] as u32 as usize);
+                        let planars = np[j] as u32 as usize;
+                        let lower = sah.cost(pos, nb + planars, na);
+                        if planars == 0 {
+                            (lower, true)
+                        } else {
+                            let upper = sah.cost(pos, nb, na + planars);
+                            if lower <= upper {
+                                (lower, true)
+                            } else {
+                                (upper, false)
+                            }
+                        }
+                    }
+                };
+                let first = |b: &Split| {
+                    cost < b.cost || (cost == b.cost && axis == b.axis && order(pos) < order(b.pos))
+                };
+                if best.as_ref().is_none_or(first) {
+                    best = Some(Split {
+                        axis,
+                        pos,
+                        cost,
+                        planar_below,
+                    });
+                }
+            }
+        }
+    }
+    best
+}
+
+/// For the first `C` chunks of candidates `c`, adds up the boxes (`boxes`: min, max pairs on
+/// one axis) below each candidate (`min < p`), above it (`max > p`) and flat on it; returns
+/// whether any box is flat.
+#[inline(always)]
+fn count<const C: usize>(
+    boxes: &[f32],
+    c: &[wide::f32x8; 2 * SMALL_MAX / 8],
+    below: &mut [wide::f32x8; 2 * SMALL_MAX / 8],
+    above: &mut [wide::f32x8; 2 * SMALL_MAX / 8],
+    flat: &mut [wide::f32x8; 2 * SMALL_MAX / 8],
+) -> bool {
+    use wide::f32x8;
+    let one = f32x8::splat(1.0);
+    let c: [f32x8; C] = core::array::from_fn(|k| c[k]);
+    let (mut b, mut a) = ([f32x8::ZERO; C], [f32x8::ZERO; C]);
+    let mut any_flat = false;
+    for pair in boxes.chunks_exact(2) {
+        let (lo, hi) = (pair[0], pair[1]);
+        let (l, h) = (f32x8::splat(lo), f32x8::splat(hi));
+        for k in 0..C {
+            b[k] += l.simd_lt(c[k]) & one;
+            a[k] += h.simd_gt(c[k]) & one;
+        }
+        if lo == hi {
+            any_flat = true;
+            for k in 0..C {
+                flat[k] += l.simd_eq(c[k]) & one;
+            }
+        }
+    }
+    below[..C].copy_from_slice(&b);
+    above[..C].copy_from_slice(&a);
+    any_flat
+}
+
+/// The sort order of positions in the event lists ([`Event::key`]): −0 before +0.
+#[inline]
+fn order(pos: f32) -> u64 {
+    Event {
+        pos,
+        prim: 0,
+        kind: 0,
+    }
+    .key()
 }
 
 /// Which way a reference goes: below, above or both (it straddles the plane).
@@ -266,4 +429,101 @@ fn partition(
         stack.extend_from_slice(below);
         (below.len(), na)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use events::Costs;
+    use glam::Vec3;
+
+    /// A deterministic generator (SplitMix64).
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+
+        fn below(&mut self, n: usize) -> usize {
+            (self.next() % n as u64) as usize
+        }
+    }
+
+    /// Random boxes in `bounds`, their bounds drawn from a few values (so that boxes share
+    /// bounds, lie flat, touch the node's walls, and sit on ±0), at scale `s`.
+    fn boxes(rng: &mut Rng, n: usize, s: f32) -> Vec<Ref> {
+        let values = [-4.0, -1.5, -0.0, 0.0, 0.25, 1.0, 2.5, 3.0, 4.0].map(|v: f32| v * s);
+        (0..n)
+            .map(|i| {
+                let mut pick = || {
+                    let (a, b) = (values[rng.below(9)], values[rng.below(9)]);
+                    // One box in five flat on the axis.
+                    if rng.below(5) == 0 {
+                        (a, a)
+                    } else {
+                        (a.min(b), a.max(b))
+                    }
+                };
+                let (x, y, z) = (pick(), pick(), pick());
+                Ref {
+                    id: i as u32,
+                    bounds: Aabb {
+                        min: Vec3::new(x.0, y.0, z.0),
+                        max: Vec3::new(x.1, y.1, z.1),
+                    },
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_small_search_finds_the_sweeps_plane() {
+        let mut rng = Rng(7);
+        for group in [1, 4] {
+            let costs = Costs {
+                traversal: 1.0,
+                intersect: 80.0,
+                empty_bonus: 0.5,
+                group,
+            };
+            for s in [1.0, 1e-30, 1e30, 3e-39] {
+                let bounds = Aabb {
+                    min: Vec3::splat(-4.0 * s),
+                    max: Vec3::splat(4.0 * s),
+                };
+                for n in (1..=SMALL_MAX).chain([SMALL_MAX; 40]) {
+                    let refs = boxes(&mut rng, n, s);
+                    let (small, sweep) = (
+                        small_split(&refs, &bounds, &costs),
+                        exact_split(&refs, &bounds, &costs),
+                    );
+                    let bits = |s: Option<Split>| {
+                        s.map(|s| (s.axis, s.pos.to_bits(), s.cost.to_bits(), s.planar_below))
+                    };
+                    assert_eq!(bits(small), bits(sweep), "n {n}, scale {s}, group {group}");
+                }
+            }
+            // All boxes the same, and a flat node (no depth on z).
+            let same = vec![boxes(&mut Rng(1), 1, 1.0)[0]; SMALL_MAX];
+            let flat = Aabb {
+                min: Vec3::new(-4.0, -4.0, 0.0),
+                max: Vec3::new(4.0, 4.0, 0.0),
+            };
+            let bounds = Aabb {
+                min: Vec3::splat(-4.0),
+                max: Vec3::splat(4.0),
+            };
+            for (refs, bounds) in [(same, bounds), (boxes(&mut rng, 20, 1.0), flat)] {
+                assert_eq!(
+                    small_split(&refs, &bounds, &costs),
+                    exact_split(&refs, &bounds, &costs)
+                );
+            }
+        }
+    }
 }
