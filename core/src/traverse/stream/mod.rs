@@ -6,7 +6,9 @@
 //!    directions within a cone, origins close: [`Coherence`]) as one packet — a camera's tiles
 //!    stay packets without paying for a sort;
 //! 2. sorts the other rays by octant, origin and direction ([`order`]), and traces the coherent
-//!    runs of that order as packets;
+//!    runs of that order as packets — unless the scene has wide nodes (and the core its `wide`
+//!    feature): then the one-ray walk over them is faster than packets of sorted rays over the
+//!    binary nodes, and the other rays go straight to step 3, unsorted;
 //! 3. traces what is left as single rays, one after another, by the one-ray walk (over the wide
 //!    nodes when the scene has them).
 //!

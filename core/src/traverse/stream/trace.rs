@@ -107,11 +107,17 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
     let scale = origin_scale(lo, hi);
     const { assert!(L::WIDTH <= 16) };
     let width = L::WIDTH;
-    // Coherent runs of the input as it comes (a camera's tiles), the rest keyed for sorting.
+    // Coherent runs of the input as it comes (a camera's tiles), the rest keyed for sorting, or,
+    // over wide nodes, traced one by one at once.
+    let sort = !walks_wide(scene);
     let mut m = 0;
     for (c, chunk) in rays.chunks(width).enumerate() {
         if PACKETS && run_length(chunk.iter(), rule, max_origin2) == width {
             trace_packet::<A, C, L>(scene, chunk, c * width, |i| i, out);
+            continue;
+        }
+        if !sort {
+            singles::<A, C>(scene, rays, c * width..c * width + chunk.len(), out);
             continue;
         }
         for (k, ray) in chunk.iter().enumerate() {
@@ -153,6 +159,15 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
     }
     let order = keys[..n_singles].iter().map(|e| e[1] as usize);
     singles::<A, C>(scene, rays, order, out);
+}
+
+/// Whether the scene's single rays walk wide nodes. Then a ray outside a coherent run of the input
+/// is traced alone, unsorted: on the dragon's diffuse rays the sort and the packets of sorted rays
+/// over the binary nodes ran at 0.64× the wide walk's speed (docs/BENCHMARKS.md, "The stream over
+/// wide nodes").
+#[inline(always)]
+fn walks_wide(scene: &Scene) -> bool {
+    cfg!(feature = "wide") && !scene.wide_nodes().is_empty()
 }
 
 /// A ray no kernel hits, filling unused entries of a gathered batch.
