@@ -40,7 +40,7 @@ pub struct Ref {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FastParams {
     /// Bins per axis of the binned split search (at least 2, at most
-    /// [`binned::MAX_BINS`](super::binned::MAX_BINS) = 256).
+    /// [`binned::MAX_BINS`] = 256).
     pub bins: usize,
     /// Nodes of at least this many references are binned; smaller ones are swept exactly.
     pub bin_min: usize,
