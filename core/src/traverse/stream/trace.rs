@@ -164,10 +164,11 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
 /// Whether the scene's single rays walk wide nodes. Then a ray outside a coherent run of the input
 /// is traced alone, unsorted: on the dragon's diffuse rays the sort and the packets of sorted rays
 /// over the binary nodes ran at 0.64× the wide walk's speed (docs/BENCHMARKS.md, "The stream over
-/// wide nodes").
+/// wide nodes"). (Without the `wide` feature a scene's wide section is set aside on load, so
+/// this is false there.)
 #[inline(always)]
 fn walks_wide(scene: &Scene) -> bool {
-    cfg!(feature = "wide") && !scene.wide_nodes().is_empty()
+    !scene.wide_nodes().is_empty()
 }
 
 /// A ray no kernel hits, filling unused entries of a gathered batch.
