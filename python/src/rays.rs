@@ -18,7 +18,7 @@
 use crate::mesh::{number, row};
 use glam::Vec3;
 use kdray::crossings::{AllHit, all_hits};
-use kdray_core::simd::{Lanes, RayPacket, Vec3x};
+use kdray_core::simd::{Lanes, RayPacket, Vec3x, f32x4, f32x8};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config};
 use kdray_core::{Ray, Scene};
@@ -344,17 +344,17 @@ impl Rows<'_> {
     /// # Panics
     /// If the rays are not all in the batch.
     #[inline(always)]
-    pub fn packet<L: Lanes>(&self, i: usize) -> RayPacket<L> {
+    pub fn packet<L: Columns>(&self, i: usize) -> RayPacket<L> {
         let w = L::WIDTH;
         let [so, sd, slo, shi] = self.strides;
-        // Columns of 3-vectors: a row per ray (`stride` 3) or one for all (0).
-        let column = |a: &[f32], stride: usize, c: usize| {
-            if stride == 0 {
-                L::splat(a[c])
+        // The columns of 3-vectors: a row per ray (`stride` 3) or one for all (0).
+        let columns = |a: &[f32], stride: usize| {
+            let [x, y, z] = if stride == 0 {
+                [0, 1, 2].map(|c| L::splat(a[c]))
             } else {
-                let rows = &a[3 * i..3 * (i + w)];
-                L::from_fn(|j| rows[3 * j + c])
-            }
+                L::columns3(&a[3 * i..3 * (i + w)])
+            };
+            Vec3x { x, y, z }
         };
         let scalar = |a: &[f32], stride: usize| {
             if stride == 0 {
@@ -364,16 +364,8 @@ impl Rows<'_> {
                 L::from_fn(|j| rows[j])
             }
         };
-        let origin = Vec3x {
-            x: column(self.origins, so, 0),
-            y: column(self.origins, so, 1),
-            z: column(self.origins, so, 2),
-        };
-        let dir = Vec3x {
-            x: column(self.directions, sd, 0),
-            y: column(self.directions, sd, 1),
-            z: column(self.directions, sd, 2),
-        };
+        let origin = columns(self.origins, so);
+        let dir = columns(self.directions, sd);
         let (tmin, tmax) = (scalar(self.tmin, slo), scalar(self.tmax, shi));
         let inf = L::splat(f32::INFINITY);
         let finite = |x: L| x.abs().lt(inf);
@@ -406,6 +398,60 @@ impl Rows<'_> {
     pub fn direction(&self, i: usize) -> Vec3 {
         let sd = self.strides[1];
         Vec3::from_slice(&self.directions[i * sd..i * sd + 3])
+    }
+}
+
+/// Lanes that read `WIDTH` 3-vectors, stored as rows (`x y z` each, as numpy's `(n, 3)` arrays
+/// lie), into three columns of lanes: `x`, `y` and `z`.
+pub trait Columns: Lanes {
+    /// The columns of `rows`, `3 × WIDTH` floats.
+    fn columns3(rows: &[f32]) -> [Self; 3];
+}
+
+impl Columns for f32x4 {
+    #[inline(always)]
+    fn columns3(rows: &[f32]) -> [Self; 3] {
+        [0, 1, 2].map(|c| Self::from_fn(|j| rows[3 * j + c]))
+    }
+}
+
+impl Columns for f32x8 {
+    /// With AVX: six 4-float loads and five shuffles (the 3-vector transpose of Intel's
+    /// "3D Vector Normalization Using 256-Bit Intel AVX"), where lane by lane took 13
+    /// instructions a column, and the reading of packets a quarter of the package's own time on
+    /// the bunny's primary rays.
+    #[inline(always)]
+    fn columns3(rows: &[f32]) -> [Self; 3] {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+        {
+            use core::arch::x86_64::{__m128, _mm_loadu_ps, _mm256_set_m128, _mm256_shuffle_ps};
+            let rows: &[f32; 24] = rows.try_into().expect("8 rows of 3 floats");
+            // Floats 4k..4k+4 of the 24: m0 = x0 y0 z0 x1, m1 = y1 z1 x2 y2, m2 = z2 x3 y3 z3, and
+            // m3..m5 the same for vectors 4 to 7.
+            // SAFETY: the build enables AVX (the `cfg` above), so the CPU has it; each load reads
+            // floats 4k..4k + 4, k < 6, inside the 24, unaligned.
+            let [x, y, z] = unsafe {
+                let m = |k: usize| -> __m128 { _mm_loadu_ps(rows.as_ptr().add(4 * k)) };
+                let (m03, m14, m25) = (
+                    _mm256_set_m128(m(3), m(0)),
+                    _mm256_set_m128(m(4), m(1)),
+                    _mm256_set_m128(m(5), m(2)),
+                );
+                // In each 128-bit half (vectors 0-3 below, 4-7 above):
+                let xy = _mm256_shuffle_ps::<0b10_01_11_10>(m14, m25); // x2 y2 x3 y3
+                let yz = _mm256_shuffle_ps::<0b01_00_10_01>(m03, m14); // y0 z0 y1 z1
+                [
+                    _mm256_shuffle_ps::<0b10_00_11_00>(m03, xy), // x0 x1 x2 x3
+                    _mm256_shuffle_ps::<0b11_01_10_00>(yz, xy),  // y0 y1 y2 y3
+                    _mm256_shuffle_ps::<0b11_00_11_01>(yz, m25), // z0 z1 z2 z3
+                ]
+            };
+            [x, y, z].map(bytemuck::cast)
+        }
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
+        {
+            [0, 1, 2].map(|c| Self::from_fn(|j| rows[3 * j + c]))
+        }
     }
 }
 
