@@ -40,7 +40,7 @@ const variants = {
 
 await init();
 {
-  const m = bunny();
+  const m = meshByName('bunny');
   for (let w = 0; w < 10; w++) for (const f of Object.values(variants)) await f(m);
 }
 const rows = [];
