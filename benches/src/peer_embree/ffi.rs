@@ -63,6 +63,7 @@ pub const RTC_FORMAT_FLOAT3: RTCFormat = 0x9003;
 
 // enum RTCBuildQuality (rtcore_common.h)
 pub type RTCBuildQuality = c_uint;
+pub const RTC_BUILD_QUALITY_MEDIUM: RTCBuildQuality = 1;
 pub const RTC_BUILD_QUALITY_HIGH: RTCBuildQuality = 2;
 
 // enum RTCIntersectContextFlags (rtcore_common.h)

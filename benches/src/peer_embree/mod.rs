@@ -43,6 +43,15 @@ use ffi::*;
 /// The config string of [`EmbreeDevice::new`].
 pub const SINGLE_THREAD_CONFIG: &str = "threads=1";
 
+/// An Embree build quality ([`EmbreeDevice::build_at`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quality {
+    /// `RTC_BUILD_QUALITY_MEDIUM`.
+    Medium,
+    /// `RTC_BUILD_QUALITY_HIGH`, what [`EmbreeDevice::build`] uses.
+    High,
+}
+
 /// An Embree call that failed: what was being done and the `RTCError` code.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct EmbreeError {
@@ -163,6 +172,23 @@ impl EmbreeDevice {
     /// An Embree error at any step (out of memory, too many triangles for Embree's 32-bit
     /// indices).
     pub fn build(&self, triangles: &[[Vec3; 3]]) -> Result<EmbreeScene<'_>, EmbreeError> {
+        self.build_at(triangles, Quality::High)
+    }
+
+    /// [`build`](Self::build) at another build quality (`RTC_BUILD_QUALITY_MEDIUM`: Embree's
+    /// binned SAH BVH without spatial splits; `HIGH`: with them).
+    ///
+    /// # Errors
+    /// As [`build`](Self::build).
+    pub fn build_at(
+        &self,
+        triangles: &[[Vec3; 3]],
+        quality: Quality,
+    ) -> Result<EmbreeScene<'_>, EmbreeError> {
+        let quality = match quality {
+            Quality::Medium => RTC_BUILD_QUALITY_MEDIUM,
+            Quality::High => RTC_BUILD_QUALITY_HIGH,
+        };
         let dev = self.raw.as_ptr();
         // SAFETY: `dev` is a live device.
         let scene = NonNull::new(unsafe { rtcNewScene(dev) }).ok_or(EmbreeError {
@@ -177,7 +203,7 @@ impl EmbreeDevice {
         };
         self.check("rtcNewScene")?;
         // SAFETY: `scene` is live; the quality is a valid enum value.
-        unsafe { rtcSetSceneBuildQuality(scene.as_ptr(), RTC_BUILD_QUALITY_HIGH) };
+        unsafe { rtcSetSceneBuildQuality(scene.as_ptr(), quality) };
         self.check("rtcSetSceneBuildQuality")?;
         if !triangles.is_empty() {
             self.attach_triangles(scene.as_ptr(), triangles)?;

@@ -130,7 +130,7 @@ fn parse_bonus(s: &str) -> core::result::Result<f64, String> {
 }
 
 /// Builds `geom` with a progress bar; returns the words, the build time in ms and the process's
-/// CPU time during the build in ms ([`process_cpu_ms`], `None` where the system does not say).
+/// CPU time during the build in ms ([`kdray::cpu::process_ms`], `None` where the system does not say).
 /// Geometry the flat format cannot hold is refused first, naming `path` (the input).
 pub fn build_words(
     path: &Path,
@@ -162,9 +162,9 @@ pub fn build_words(
         &bar,
         || progress.load(Ordering::Relaxed) * 1000 / PROGRESS_TOTAL,
         || {
-            let (t0, c0) = (Instant::now(), process_cpu_ms());
+            let (t0, c0) = (Instant::now(), kdray::cpu::process_ms());
             let tree = kdray::build::build(geom, params, Some(&progress));
-            let cpu = c0.zip(process_cpu_ms()).map(|(a, b)| b - a);
+            let cpu = c0.zip(kdray::cpu::process_ms()).map(|(a, b)| b - a);
             (tree, t0.elapsed().as_secs_f64() * 1e3, cpu)
         },
     );
@@ -176,18 +176,6 @@ pub fn build_words(
         return Err(Error::new(path, msg));
     }
     Ok((words, build_ms, cpu_ms))
-}
-
-/// The CPU time the process (all its threads, user and system) has used, in ms to the kernel's
-/// tick (10 ms), from Linux's `/proc/self/stat`; `None` elsewhere. On a loaded machine a serial
-/// build's CPU time varies less than its wall time.
-fn process_cpu_ms() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // The fields after the command name (in parentheses, which may hold spaces): state is the
-    // 3rd field of the line, utime and stime the 14th and 15th, in ticks of 1/100 s (USER_HZ).
-    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
-    let ticks = |i: usize| fields.get(i)?.parse::<u64>().ok();
-    Some((ticks(11)? + ticks(12)?) as f64 * 10.0)
 }
 
 /// Loads a `.kdt`, or loads and builds anything else (refusing to write over an input named in
