@@ -39,8 +39,12 @@ CONTAINS_DIRECTION = tuple(float(x) for x in _kdray.CONTAINS_DIRECTION)
 #: builds it (the repository's ``.cargo/config.toml``), a portable wheel for SSE2.
 ISA: str = _kdray.ISA
 
-_BUILD_OPTIONS = {"layout": ("wide", "nodes"), "leaves": ("groups", "list")}
-_DEFAULTS = {"layout": "wide", "leaves": "groups"}
+_BUILD_OPTIONS = {
+    "layout": ("wide", "nodes"),
+    "leaves": ("groups", "list"),
+    "quality": ("fast", "high"),
+}
+_DEFAULTS = {"layout": "wide", "leaves": "groups", "quality": "fast"}
 
 
 class Hits(NamedTuple):
@@ -187,7 +191,7 @@ class Scene:
     """A triangle mesh and its SAH kd-tree, ready to trace rays.
 
     ``Scene(vertices, faces=None, *, watertight=False, threads=None, layout='wide',
-    leaves='groups')``
+    leaves='groups', quality='fast')``
 
     - ``vertices``: ``(N, 3)`` floats (float32 is used as given, float64 converted once).
     - ``faces``: ``(M, 3)`` integer vertex indices; ``None``: every 3 vertices are a triangle.
@@ -198,8 +202,10 @@ class Scene:
     - ``threads``: the threads the build uses (default: every core).
     - build options: ``layout`` (``'wide'``: also store the tree as eight-wide nodes with tight
       boxes, which single rays walk faster; or ``'nodes'``: the binary nodes only, a smaller
-      tree) and ``leaves`` (``'groups'``: triangles four to a SIMD group,
-      or ``'list'``: index lists), as ``kdray build --layout/--leaves``.
+      tree), ``leaves`` (``'groups'``: triangles four to a SIMD group,
+      or ``'list'``: index lists) and ``quality`` (``'fast'``: binned planes, 2.5–3× faster to
+      build than ``'high'``, the exact sweep, whose tree takes about 8 % fewer instructions a
+      ray), as ``kdray build --layout/--leaves/--quality``.
 
     Triangles are reported by their index in ``faces`` (input order). Degenerate triangles are
     kept in the numbering and never hit. Bad input raises ``ValueError`` (values) or
@@ -241,7 +247,7 @@ class Scene:
                 raise ValueError(f"faces holds {f.max()}, past any vertex index")
             f = np.ascontiguousarray(f, dtype=np.int64)
         self._tree = _kdray.Tree.build(
-            np.ascontiguousarray(v), f, opts["layout"], opts["leaves"], threads
+            np.ascontiguousarray(v), f, opts["layout"], opts["leaves"], opts["quality"], threads
         )
         self.watertight = bool(watertight)
 
@@ -275,7 +281,8 @@ class Scene:
             raise TypeError(f"path must be a str or os.PathLike, not {type(path).__name__}")
         if not os.path.exists(path):
             raise FileNotFoundError(errno.ENOENT, "no such file", path)
-        return cls._wrap(_kdray.Tree.load(path, opts["layout"], opts["leaves"], threads), watertight)
+        tree = _kdray.Tree.load(path, opts["layout"], opts["leaves"], opts["quality"], threads)
+        return cls._wrap(tree, watertight)
 
     @classmethod
     def from_bytes(cls, data: bytes, *, watertight: bool = False) -> "Scene":

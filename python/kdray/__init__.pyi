@@ -38,6 +38,7 @@ class Scene:
         threads: Optional[int] = None,
         layout: str = "wide",
         leaves: str = "groups",
+        quality: str = "fast",
     ) -> None: ...
     @classmethod
     def load(
@@ -48,6 +49,7 @@ class Scene:
         threads: Optional[int] = None,
         layout: str = "wide",
         leaves: str = "groups",
+        quality: str = "fast",
     ) -> "Scene": ...
     @classmethod
     def from_bytes(

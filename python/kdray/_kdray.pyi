@@ -18,10 +18,17 @@ Rays = Tuple[F32, F32, F32, F32, int, Tuple[int, ...]]
 class Tree:
     @staticmethod
     def build(
-        vertices: F32, faces: Optional[I64], layout: str, leaves: str, threads: Optional[int]
+        vertices: F32,
+        faces: Optional[I64],
+        layout: str,
+        leaves: str,
+        quality: str,
+        threads: Optional[int],
     ) -> "Tree": ...
     @staticmethod
-    def load(path: str, layout: str, leaves: str, threads: Optional[int]) -> "Tree": ...
+    def load(
+        path: str, layout: str, leaves: str, quality: str, threads: Optional[int]
+    ) -> "Tree": ...
     @staticmethod
     def from_words(words: npt.NDArray[np.uint32]) -> "Tree": ...
     def to_bytes(self) -> bytes: ...

@@ -34,8 +34,8 @@ __all__ = ["RayMeshIntersector"]
 class RayMeshIntersector:
     """Ray queries on a trimesh ``Trimesh`` through a kdray :class:`~kdray.Scene`.
 
-    ``watertight`` and the build options (``layout``, ``leaves``, ``threads``) are passed to the
-    scene (:class:`kdray.Scene`).
+    ``watertight`` and the build options (``layout``, ``leaves``, ``quality``, ``threads``) are
+    passed to the scene (:class:`kdray.Scene`).
     """
 
     def __init__(self, mesh: Any, *, watertight: bool = False, **build_options: Any) -> None:

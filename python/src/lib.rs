@@ -16,6 +16,7 @@ mod mesh;
 mod owned;
 mod rays;
 
+use kdray::build::Quality;
 use kdray::flat::{self, Layout, Leaves};
 use kdray_core::traverse::Mode;
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
@@ -57,7 +58,7 @@ fn on_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyR
     Ok(pool.install(f))
 }
 
-fn options(layout: &str, leaves: &str, threads: Option<usize>) -> PyResult<Options> {
+fn options(layout: &str, leaves: &str, quality: &str, threads: Option<usize>) -> PyResult<Options> {
     let layout = match layout {
         "wide" => Layout::Wide,
         "nodes" => Layout::Nodes,
@@ -76,9 +77,19 @@ fn options(layout: &str, leaves: &str, threads: Option<usize>) -> PyResult<Optio
             )));
         }
     };
+    let quality = match quality {
+        "fast" => Quality::Fast,
+        "high" => Quality::High,
+        _ => {
+            return Err(value_error(format!(
+                "quality={quality:?}: it must be 'fast' or 'high'"
+            )));
+        }
+    };
     Ok(Options {
         layout,
         leaves,
+        quality,
         parallel: threads != Some(1),
     })
 }
@@ -155,16 +166,17 @@ fn mode(watertight: bool) -> Mode {
 impl Tree {
     /// Builds the tree over `vertices` (`(N, 3)` float32) and `faces` (`(M, 3)` int64, or none).
     #[staticmethod]
-    #[pyo3(signature = (vertices, faces, layout, leaves, threads))]
+    #[pyo3(signature = (vertices, faces, layout, leaves, quality, threads))]
     fn build(
         py: Python<'_>,
         vertices: PyReadonlyArray2<'_, f32>,
         faces: Option<PyReadonlyArray2<'_, i64>>,
         layout: &str,
         leaves: &str,
+        quality: &str,
         threads: Option<usize>,
     ) -> PyResult<Self> {
-        let options = options(layout, leaves, threads)?;
+        let options = options(layout, leaves, quality, threads)?;
         let v = slice(&vertices, "vertices")?;
         let f = faces.as_ref().map(|f| slice(f, "faces")).transpose()?;
         let owned = py.detach(|| {
@@ -180,15 +192,16 @@ impl Tree {
 
     /// Loads a `.kdt` (validated), or a mesh file (`.ply`, `.ply.gz`, `.obj`, `.tri`) and builds it.
     #[staticmethod]
-    #[pyo3(signature = (path, layout, leaves, threads))]
+    #[pyo3(signature = (path, layout, leaves, quality, threads))]
     fn load(
         py: Python<'_>,
         path: PathBuf,
         layout: &str,
         leaves: &str,
+        quality: &str,
         threads: Option<usize>,
     ) -> PyResult<Self> {
-        let options = options(layout, leaves, threads)?;
+        let options = options(layout, leaves, quality, threads)?;
         let is_kdt = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("kdt"));

@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 use kdray::Geometry;
-use kdray::build::{self, BuildParams};
+use kdray::build::{self, BuildParams, Quality};
 use kdray::flat::{self, Aligned, Layout, Leaves};
 use kdray_core::Scene;
 use kdray_core::format::contents;
@@ -49,11 +49,13 @@ impl Owned {
     }
 }
 
-/// How to build: the stored layout and leaves, and whether subtrees are built on the rayon pool.
+/// How to build: the stored layout and leaves, the builder's quality, and whether subtrees are
+/// built on the rayon pool.
 #[derive(Clone, Copy, Debug)]
 pub struct Options {
     pub layout: Layout,
     pub leaves: Leaves,
+    pub quality: Quality,
     pub parallel: bool,
 }
 
@@ -85,7 +87,8 @@ pub fn build_geometry(geom: &Geometry, options: Options) -> Result<Owned, String
     let params = BuildParams {
         parallel: options.parallel,
         ..options.leaves.build_params()
-    };
+    }
+    .with_quality(options.quality);
     let start = std::time::Instant::now();
     let tree = build::build(geom, &params, None)?;
     let ms = start.elapsed().as_secs_f32() * 1e3;

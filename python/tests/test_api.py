@@ -171,6 +171,28 @@ def test_mesh_files_load_and_build(tmp_path):
         np.testing.assert_array_equal(scene.contains([[0.1, 0.1, 0.1], [1, 1, 1]]), want)
 
 
+def test_qualities_build_different_trees_that_answer_alike(rng):
+    # 3,000 triangles: `fast` bins the nodes of 32 triangles and more, so its tree differs from
+    # `high`'s (the exact sweep everywhere); both find the same nearest hits.
+    vertices, faces = random_mesh(rng, n_tris=3000)
+    origins, directions = random_rays(rng, 5000)
+
+    def tree(scene):
+        # The file's words but the build time (header word 22, information only) and the
+        # checksum over all words (24 and 25).
+        words = np.frombuffer(scene.to_bytes(), "<u4")
+        return np.delete(words, [22, 24, 25]).tobytes()
+
+    fast = kdray.Scene(vertices, faces)  # the default
+    high = kdray.Scene(vertices, faces, quality="high")
+    assert tree(fast) == tree(kdray.Scene(vertices, faces, quality="fast"))
+    assert tree(fast) != tree(high)
+    a, b = fast.intersect(origins, directions), high.intersect(origins, directions)
+    assert (a.prim >= 0).sum() > 1000, "the rays should hit the mesh often"
+    np.testing.assert_array_equal(a.t, b.t)
+    assert np.mean(a.prim == b.prim) > 0.999
+
+
 def test_watertight_mode_is_the_scenes(rng):
     vertices, faces = random_mesh(rng)
     origins, directions = random_rays(rng, 2000)

@@ -28,7 +28,11 @@ def margins(vertices, faces, origins, directions, tmin=0.0, tmax=np.inf):
 
 
 @pytest.mark.parametrize("watertight", [False, True])
-@pytest.mark.parametrize("options", [{}, {"layout": "nodes"}, {"leaves": "list"}])
+@pytest.mark.parametrize(
+    "options",
+    [{}, {"layout": "nodes"}, {"leaves": "list"}, {"quality": "high"},
+     {"quality": "high", "leaves": "list"}],
+)
 def test_intersect_and_occluded_match_brute_force(rng, watertight, options):
     for trial in range(3):
         vertices, faces = random_mesh(rng, n_tris=200 + 100 * trial)

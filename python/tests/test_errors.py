@@ -69,6 +69,8 @@ def test_bad_build_options():
         kdray.Scene(V, F, layout="tiles")
     with raises(ValueError, "layout='blocked'", "retired", "'wide'"):
         kdray.Scene(V, F, layout="blocked")
+    with raises(ValueError, "quality='best'", "'fast'", "'high'"):
+        kdray.Scene(V, F, quality="best")
     with raises(ValueError, "threads=0"):
         kdray.Scene(V, F, threads=0)
     with raises(TypeError, "threads", "float"):
