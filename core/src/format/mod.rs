@@ -216,6 +216,7 @@ pub mod stride {
 mod checksum;
 mod error;
 mod validate;
+pub(crate) use validate::same_words;
 
 pub use checksum::{checksum, seal};
 pub use error::FormatError;

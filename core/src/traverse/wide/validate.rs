@@ -54,7 +54,7 @@ pub fn validate(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
             };
             super::set_slot_box(&mut expected, k, slot_box(stored, k));
         }
-        if expected != *stored {
+        if !crate::format::same_words(&expected, stored) {
             return Err(bad);
         }
         let bad_box = FormatError::BadWideBox { node: w };
