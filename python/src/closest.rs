@@ -300,17 +300,12 @@ fn trace_packets<L: Columns>(
             // A whole packet of unit directions (nearly every one): its lanes straight into
             // the answers, with no branch a lane.
             // A missed lane holds `Hit::MISS`, whose `t` is +inf, `u` and `v` 0.
-            let prim = prim.as_ref();
-            let hit = |j: usize| prim[j] != Hit::MISS_PRIM;
             put(&mut p.t[at..at + k], t.as_ref());
             put(&mut p.u[at..at + k], u.as_ref());
             put(&mut p.v[at..at + k], v.as_ref());
+            let prim = prim.as_ref();
             for (j, out) in p.prim[at..at + k].iter_mut().enumerate() {
-                out.write(if hit(j) {
-                    i64::from(scene.input_id(prim[j]))
-                } else {
-                    -1
-                });
+                out.write(prim_of(scene, prim[j]));
             }
             continue;
         }
@@ -334,7 +329,7 @@ fn trace_packets<L: Columns>(
             } else {
                 f32::INFINITY
             });
-            prim_out.write(prim_of(scene, &h));
+            prim_out.write(prim_of(scene, h.prim));
             u_out.write(h.u);
             v_out.write(h.v);
             if geometry {
@@ -369,11 +364,11 @@ fn t_of(h: &Hit, len: f64) -> f32 {
     }
 }
 
-/// The triangle hit in input order (−1 for a miss).
+/// The triangle `prim` a hit reports, in input order (−1 for a miss, `Hit::MISS_PRIM`).
 #[inline(always)]
-fn prim_of(scene: &Scene, h: &Hit) -> i64 {
-    if h.is_hit() {
-        i64::from(scene.input_id(h.prim))
+fn prim_of(scene: &Scene, prim: u32) -> i64 {
+    if prim != Hit::MISS_PRIM {
+        i64::from(scene.input_id(prim))
     } else {
         -1
     }
@@ -390,7 +385,7 @@ fn answer(scene: &Scene, batch: &Batch, p: &mut Piece, from: usize, hits: &[Hit]
         .zip(&mut p.v[at..at + len]);
     for ((((t, prim), u), v), (h, l)) in rows.zip(hits.iter().zip(lengths)) {
         t.write(t_of(h, *l));
-        prim.write(prim_of(scene, h));
+        prim.write(prim_of(scene, h.prim));
         u.write(h.u);
         v.write(h.v);
     }

@@ -59,39 +59,37 @@ fn on_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyR
 }
 
 fn options(layout: &str, leaves: &str, quality: &str, threads: Option<usize>) -> PyResult<Options> {
-    let layout = match layout {
-        "wide" => Layout::Wide,
-        "nodes" => Layout::Nodes,
-        _ => {
-            return Err(value_error(format!(
-                "layout={layout:?}: it must be 'wide' or 'nodes'"
-            )));
-        }
-    };
-    let leaves = match leaves {
-        "list" => Leaves::List,
-        "groups" => Leaves::Groups,
-        _ => {
-            return Err(value_error(format!(
-                "leaves={leaves:?}: it must be 'groups' or 'list'"
-            )));
-        }
-    };
-    let quality = match quality {
-        "fast" => Quality::Fast,
-        "high" => Quality::High,
-        _ => {
-            return Err(value_error(format!(
-                "quality={quality:?}: it must be 'fast' or 'high'"
-            )));
-        }
-    };
     Ok(Options {
-        layout,
-        leaves,
-        quality,
+        layout: choice(
+            "layout",
+            layout,
+            [("wide", Layout::Wide), ("nodes", Layout::Nodes)],
+        )?,
+        leaves: choice(
+            "leaves",
+            leaves,
+            [("groups", Leaves::Groups), ("list", Leaves::List)],
+        )?,
+        quality: choice(
+            "quality",
+            quality,
+            [("fast", Quality::Fast), ("high", Quality::High)],
+        )?,
         parallel: threads != Some(1),
     })
+}
+
+/// The value of build option `name` that `value` names, or a `ValueError` naming the two.
+fn choice<T: Copy>(name: &str, value: &str, [(a, x), (b, y)]: [(&str, T); 2]) -> PyResult<T> {
+    if value == a {
+        Ok(x)
+    } else if value == b {
+        Ok(y)
+    } else {
+        Err(value_error(format!(
+            "{name}={value:?}: it must be '{a}' or '{b}'"
+        )))
+    }
 }
 
 fn slice<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(

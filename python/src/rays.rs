@@ -404,54 +404,47 @@ impl Rows<'_> {
 /// Lanes that read `WIDTH` 3-vectors, stored as rows (`x y z` each, as numpy's `(n, 3)` arrays
 /// lie), into three columns of lanes: `x`, `y` and `z`.
 pub trait Columns: Lanes {
-    /// The columns of `rows`, `3 × WIDTH` floats.
-    fn columns3(rows: &[f32]) -> [Self; 3];
-}
-
-impl Columns for f32x4 {
+    /// The columns of `rows`, `3 × WIDTH` floats: lane by lane, unless the lanes have a faster
+    /// way.
     #[inline(always)]
     fn columns3(rows: &[f32]) -> [Self; 3] {
         [0, 1, 2].map(|c| Self::from_fn(|j| rows[3 * j + c]))
     }
 }
 
+impl Columns for f32x4 {}
+
 impl Columns for f32x8 {
     /// With AVX: six 4-float loads and five shuffles (the 3-vector transpose of Intel's
     /// "3D Vector Normalization Using 256-Bit Intel AVX"), where lane by lane took 13
     /// instructions a column, and the reading of packets a quarter of the package's own time on
     /// the bunny's primary rays.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
     #[inline(always)]
     fn columns3(rows: &[f32]) -> [Self; 3] {
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
-        {
-            use core::arch::x86_64::{__m128, _mm_loadu_ps, _mm256_set_m128, _mm256_shuffle_ps};
-            let rows: &[f32; 24] = rows.try_into().expect("8 rows of 3 floats");
-            // Floats 4k..4k+4 of the 24: m0 = x0 y0 z0 x1, m1 = y1 z1 x2 y2, m2 = z2 x3 y3 z3, and
-            // m3..m5 the same for vectors 4 to 7.
-            // SAFETY: the build enables AVX (the `cfg` above), so the CPU has it; each load reads
-            // floats 4k..4k + 4, k < 6, inside the 24, unaligned.
-            let [x, y, z] = unsafe {
-                let m = |k: usize| -> __m128 { _mm_loadu_ps(rows.as_ptr().add(4 * k)) };
-                let (m03, m14, m25) = (
-                    _mm256_set_m128(m(3), m(0)),
-                    _mm256_set_m128(m(4), m(1)),
-                    _mm256_set_m128(m(5), m(2)),
-                );
-                // In each 128-bit half (vectors 0-3 below, 4-7 above):
-                let xy = _mm256_shuffle_ps::<0b10_01_11_10>(m14, m25); // x2 y2 x3 y3
-                let yz = _mm256_shuffle_ps::<0b01_00_10_01>(m03, m14); // y0 z0 y1 z1
-                [
-                    _mm256_shuffle_ps::<0b10_00_11_00>(m03, xy), // x0 x1 x2 x3
-                    _mm256_shuffle_ps::<0b11_01_10_00>(yz, xy),  // y0 y1 y2 y3
-                    _mm256_shuffle_ps::<0b11_00_11_01>(yz, m25), // z0 z1 z2 z3
-                ]
-            };
-            [x, y, z].map(bytemuck::cast)
-        }
-        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
-        {
-            [0, 1, 2].map(|c| Self::from_fn(|j| rows[3 * j + c]))
-        }
+        use core::arch::x86_64::{__m128, _mm_loadu_ps, _mm256_set_m128, _mm256_shuffle_ps};
+        let rows: &[f32; 24] = rows.try_into().expect("8 rows of 3 floats");
+        // Floats 4k..4k+4 of the 24: m0 = x0 y0 z0 x1, m1 = y1 z1 x2 y2, m2 = z2 x3 y3 z3, and
+        // m3..m5 the same for vectors 4 to 7.
+        // SAFETY: the build enables AVX (the `cfg` above), so the CPU has it; each load reads
+        // floats 4k..4k + 4, k < 6, inside the 24, unaligned.
+        let columns = unsafe {
+            let m = |k: usize| -> __m128 { _mm_loadu_ps(rows.as_ptr().add(4 * k)) };
+            let (m03, m14, m25) = (
+                _mm256_set_m128(m(3), m(0)),
+                _mm256_set_m128(m(4), m(1)),
+                _mm256_set_m128(m(5), m(2)),
+            );
+            // In each 128-bit half (vectors 0-3 below, 4-7 above):
+            let xy = _mm256_shuffle_ps::<0b10_01_11_10>(m14, m25); // x2 y2 x3 y3
+            let yz = _mm256_shuffle_ps::<0b01_00_10_01>(m03, m14); // y0 z0 y1 z1
+            [
+                _mm256_shuffle_ps::<0b10_00_11_00>(m03, xy), // x0 x1 x2 x3
+                _mm256_shuffle_ps::<0b11_01_10_00>(yz, xy),  // y0 y1 y2 y3
+                _mm256_shuffle_ps::<0b11_00_11_01>(yz, m25), // z0 z1 z2 z3
+            ]
+        };
+        columns.map(bytemuck::cast)
     }
 }
 
