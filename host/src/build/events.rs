@@ -244,6 +244,7 @@ pub fn best_split_on_axis(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::build::BuildParams;
 
     #[test]
     fn four_costs_are_the_scalar_costs() {
@@ -252,12 +253,11 @@ mod tests {
             max: glam::Vec3::new(7.0, 0.5, 1e6),
         };
         for group in [1, 4] {
-            let costs = Costs {
-                traversal: 1.0,
-                intersect: 80.0,
-                empty_bonus: 0.5,
+            let costs = BuildParams {
                 group,
-            };
+                ..BuildParams::default()
+            }
+            .costs();
             for axis in 0..3 {
                 let sah = AxisSah::new(&bounds, axis, &costs).unwrap();
                 let (lo, hi) = (sah.lo, sah.hi);

@@ -434,7 +434,7 @@ fn partition(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use events::Costs;
+    use crate::build::BuildParams;
     use glam::Vec3;
 
     /// A deterministic generator (SplitMix64).
@@ -485,12 +485,11 @@ mod tests {
     fn the_small_search_finds_the_sweeps_plane() {
         let mut rng = Rng(7);
         for group in [1, 4] {
-            let costs = Costs {
-                traversal: 1.0,
-                intersect: 80.0,
-                empty_bonus: 0.5,
+            let costs = BuildParams {
                 group,
-            };
+                ..BuildParams::default()
+            }
+            .costs();
             for s in [1.0, 1e-30, 1e30, 3e-39] {
                 let bounds = Aabb {
                     min: Vec3::splat(-4.0 * s),

@@ -130,7 +130,8 @@ fn parse_bonus(s: &str) -> core::result::Result<f64, String> {
 }
 
 /// Builds `geom` with a progress bar; returns the words, the build time in ms and the process's
-/// CPU time during the build in ms ([`kdray::cpu::process_ms`], `None` where the system does not say).
+/// CPU time during the build in ms ([`kdray::cpu::process_ms`], `None` where the system does not
+/// say).
 /// Geometry the flat format cannot hold is refused first, naming `path` (the input).
 pub fn build_words(
     path: &Path,

@@ -109,14 +109,14 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
     let width = L::WIDTH;
     // Coherent runs of the input as it comes (a camera's tiles), the rest keyed for sorting, or,
     // over wide nodes, traced one by one at once.
-    let sort = !walks_wide(scene);
+    let alone = walks_wide(scene);
     let mut m = 0;
     for (c, chunk) in rays.chunks(width).enumerate() {
         if PACKETS && run_length(chunk.iter(), rule, max_origin2) == width {
             trace_packet::<A, C, L>(scene, chunk, c * width, |i| i, out);
             continue;
         }
-        if !sort {
+        if alone {
             singles::<A, C>(scene, rays, c * width..c * width + chunk.len(), out);
             continue;
         }
