@@ -278,18 +278,7 @@ fn small_split(refs: &[Ref], bounds: &Aabb, costs: &events::Costs) -> Option<Spl
                     None => {
                         // Whole numbers below 2²⁴: exact as u32.
                         let (nb, na) = (nb[j] as u32 as usize, na[j] as u32 as usize);
-                        let planars = np[j] as u32 as usize;
-                        let lower = sah.cost(pos, nb + planars, na);
-                        if planars == 0 {
-                            (lower, true)
-                        } else {
-                            let upper = sah.cost(pos, nb, na + planars);
-                            if lower <= upper {
-                                (lower, true)
-                            } else {
-                                (upper, false)
-                            }
-                        }
+                        sah.cost_with_planars(pos, nb, na, np[j] as u32 as usize)
                     }
                 };
                 let first = |b: &Split| {
