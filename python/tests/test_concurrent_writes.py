@@ -18,13 +18,15 @@ def test_writing_faces_and_vertices_during_builds_never_panics():
     stop = threading.Event()
 
     def writer():
-        # Flip a face between in range and far out of range, and a vertex between finite and
-        # NaN, as fast as the GIL lets it.
-        k = 0
+        # Flip the last face between in range and far out of range, and the last vertex
+        # between finite and NaN, as fast as the GIL lets it: a check of the whole array and a
+        # second read of it (the build) then see them differently about as often as not.
+        last, good = f[n - 1, 1], v[3 * n - 1, 0]
         while not stop.is_set():
-            f[k % n, 1] = 10**12 if k % 2 else (3 * (k % n) + 1)
-            v[k % (3 * n), 0] = np.nan if k % 3 == 0 else 0.5
-            k += 1
+            f[n - 1, 1] = 10**12
+            v[3 * n - 1, 0] = np.nan
+            f[n - 1, 1] = last
+            v[3 * n - 1, 0] = good
 
     t = threading.Thread(target=writer)
     t.start()
