@@ -54,7 +54,7 @@ class Hits(NamedTuple):
     coordinates of the hit (``p = v0 + u·(v1 − v0) + v·(v2 − v0)``, 0 for a miss). ``points``
     (the hits, ``origin + t·direction``) and ``normals`` (the triangles' unit geometric normals,
     ``(v1 − v0) × (v2 − v0)`` normalized) have a trailing axis of 3, NaN for a miss, and are
-    ``None`` unless asked for.
+    ``None`` unless asked for; ``points`` are float64 for a scene with an ``origin``.
     """
 
     t: np.ndarray
@@ -516,6 +516,17 @@ class Scene:
             for name, x in (("tmin", tmin), ("tmax", tmax)):
                 if not isinstance(x, (int, float, np.number)):
                     raise TypeError(f"{name} must be a number, not {x!r}") from None
+            for name, x in (("origin", origin), ("direction", direction), ("tmin", tmin),
+                            ("tmax", tmax)):
+                try:
+                    a = np.asarray(x, dtype=np.float64)
+                except (TypeError, ValueError):
+                    continue
+                past = np.isfinite(a) & (np.abs(a) > _F32_MAX) & ((a < 0) | (name != "tmax"))
+                if past.any():
+                    raise ValueError(
+                        f"{name} is {x!r}: past float32's range (about ±3.4e38)"
+                    ) from None
             # The batch's words for the one ray's arguments.
             msg = str(e)
             for batch, one in (("origins[0]", "origin"), ("directions[0]", "direction"),

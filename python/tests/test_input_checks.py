@@ -87,6 +87,12 @@ def test_values_past_float32_are_named_as_given(tmin, word):
         kdray.Scene(np.vstack([V.astype(np.float64), [[1e40, 0, 0]]]), F)
     # tmax past float32's range is no bound, as +inf
     assert scene.intersect([0.1, 0.1, -1], [0, 0, 1], 0.0, 1e39).prim == 0
+    # and one ray as Python numbers
+    with pytest.raises(ValueError, match=r"tmin is -1e\+39: past float32's range"):
+        scene.raycast([0.1, 0.1, -1], [0, 0, 1], -1e39)
+    with pytest.raises(ValueError, match=r"origin is \[0.1, 0.1, -1e\+39\]: past"):
+        scene.raycast([0.1, 0.1, -1e39], [0, 0, 1])
+    assert scene.raycast([0.1, 0.1, -1], [0, 0, 1], 0.0, 1e39)[1] == 0
 
 
 class _Mesh:
