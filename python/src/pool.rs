@@ -2,9 +2,10 @@
 //! rayon's global pool.
 //!
 //! - **Bounded.** One pool of a thread a core (calls without `threads`), and one pool for the
-//!   last other `threads=k`, replaced (its threads end) when a call asks for another `k`: a pool
-//!   per distinct `k`, kept for ever, once held 813 threads after `k` = 1 … 40. `k` is at most
-//!   [`max_threads`] (16 a core, as the command line's `--threads`).
+//!   last other `threads=k`, replaced when a call asks for another `k`: its threads are told to
+//!   end and, unless another call is still using it, waited for. A pool per distinct `k`, kept
+//!   for ever, once held 813 threads after `k` = 1 … 40. `k` is at most [`max_threads`] (16 a
+//!   core, as the command line's `--threads`).
 //! - **Fork-safe.** A forked child (Python's `multiprocessing` with `fork`) inherits the pools'
 //!   memory but not their threads: a job handed to them would wait for ever. Each pool records
 //!   the process that built it; in another process it is abandoned (leaked: dropping it would
@@ -14,13 +15,29 @@
 
 use crate::stop::Stop;
 use rayon::ThreadPool;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Condvar, Mutex};
 
-/// A pool and the process that built it.
+/// A pool, the process that built it, and its threads still running.
 struct Kept {
     pid: u32,
     threads: usize,
     pool: Arc<ThreadPool>,
+    live: Arc<Live>,
+}
+
+/// A pool's threads that have not ended yet (counted down by each as it ends).
+struct Live {
+    count: Mutex<usize>,
+    ended: Condvar,
+}
+
+impl Live {
+    fn wait_for_all(&self) {
+        let mut n = self.count.lock().unwrap_or_else(|e| e.into_inner());
+        while *n > 0 {
+            n = self.ended.wait(n).unwrap_or_else(|e| e.into_inner());
+        }
+    }
 }
 
 /// The pool of a thread a core, and the one for another thread count.
@@ -61,12 +78,26 @@ pub fn get(threads: Option<usize>) -> Result<Arc<ThreadPool>, Stop> {
             let pool = k.pool.clone();
             *kept = Some(k);
             return Ok(pool);
+        } else if let Ok(pool) = Arc::try_unwrap(k.pool) {
+            // No call is using it: its threads end now, and are waited for.
+            drop(pool);
+            k.live.wait_for_all();
         }
-        // Otherwise dropped here: its threads end once no call is using it.
+        // Otherwise its threads end once the calls using it are done.
     }
+    let live = Arc::new(Live {
+        count: Mutex::new(n),
+        ended: Condvar::new(),
+    });
+    let ending = live.clone();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(n)
         .thread_name(|i| format!("kdray-{i}"))
+        .exit_handler(move |_| {
+            let mut count = ending.count.lock().unwrap_or_else(|e| e.into_inner());
+            *count -= 1;
+            ending.ended.notify_all();
+        })
         .build()
         .map_err(|e| Stop::Value(format!("threads={n}: the threads cannot be started: {e}")))?;
     let pool = Arc::new(pool);
@@ -74,6 +105,7 @@ pub fn get(threads: Option<usize>) -> Result<Arc<ThreadPool>, Stop> {
         pid,
         threads: n,
         pool: pool.clone(),
+        live,
     });
     Ok(pool)
 }
