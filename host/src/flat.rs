@@ -236,10 +236,12 @@ pub fn serialize_as(
     Ok(words)
 }
 
-/// Appends the wide section to the sealed scene `words` (collapsed from the validated scene,
+/// Appends the wide section to the sealed scene `words` (collapsed from the scene they hold,
 /// [`crate::wide`]) and seals them again.
 fn append_wide(words: &mut Vec<u32>) -> core::result::Result<(), String> {
-    let scene = Scene::from_words(words).map_err(|e| format!("internal: {e}"))?;
+    // The words were serialized just above: opened without validating them again (the tests
+    // validate every tree the builder makes, wide sections included).
+    let scene = Scene::from_built_words(words).map_err(|e| format!("internal: {e}"))?;
     let wide = crate::wide::to_wide(&scene)?;
     // Wide nodes start on a 16-word boundary (a cache line in 64-byte aligned words).
     words.resize(words.len().next_multiple_of(format::LINE_WORDS), 0);

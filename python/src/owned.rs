@@ -1,9 +1,10 @@
-//! A validated scene together with the words it views: the words are checked once
+//! A scene together with the words it views: the words are checked once
 //! ([`Scene::from_words`] is a pass over all of them, too slow per call) and the [`Scene`] kept
 //! next to them, in one self-referential cell (`self_cell`, so without `unsafe` here).
 //!
 //! Where the words come from: a mesh built by the host library's SAH builder and serializer
-//! ([`build`]: what `kdray build` does), a `.kdt` file or its bytes ([`Owned::from_words`]).
+//! ([`build`]: what `kdray build` does; opened with [`Scene::from_built_words`], trusted as this
+//! process's own), a `.kdt` file or its bytes ([`Owned::from_words`]: validated).
 
 use crate::stop::{self, Stop};
 use glam::Vec3;
@@ -31,8 +32,28 @@ impl Owned {
     /// # Errors
     /// What validation finds wrong (the core's `FormatError`), or spheres.
     pub fn from_words(words: &[u32]) -> Result<Self, String> {
-        let owned = Owned::try_new(Aligned::new(words), |w| Scene::from_words(w))
-            .map_err(|e| format!("not a valid kd-tree: {e}"))?;
+        Self::open(words, false)
+    }
+
+    /// Keeps `words` that [`build_geometry`] just wrote, opened with [`Scene::from_built_words`]
+    /// (header, sections and tree shape checked; the checksum, geometry and wide nodes trusted:
+    /// the Rust tests validate every tree the builder makes).
+    ///
+    /// # Errors
+    /// As [`Owned::from_words`] (none expected).
+    fn from_built_words(words: &[u32]) -> Result<Self, String> {
+        Self::open(words, true)
+    }
+
+    fn open(words: &[u32], built: bool) -> Result<Self, String> {
+        let owned = Owned::try_new(Aligned::new(words), |w| {
+            if built {
+                Scene::from_built_words(w)
+            } else {
+                Scene::from_words(w)
+            }
+        })
+        .map_err(|e| format!("not a valid kd-tree: {e}"))?;
         if owned.scene().contents() & contents::SPHERES != 0 {
             return Err(
                 "the scene holds spheres: this package traces triangle meshes only".to_string(),
@@ -73,8 +94,8 @@ pub fn probe_build(triangles: usize) -> Result<(), Stop> {
     )
 }
 
-/// Builds the SAH kd-tree over `triangles` (input order), serializes it and validates it as a
-/// loaded file would be.
+/// Builds the SAH kd-tree over `triangles` (input order), serializes it and opens it with
+/// [`Scene::from_built_words`] (not validated again as a loaded file is).
 ///
 /// # Errors
 /// What the builder or the serializer refuses (a triangle too large for the kernels' f32, a tree
@@ -107,6 +128,6 @@ pub fn build_geometry(geom: &Geometry, options: Options) -> Result<Owned, String
     let tree = build::build(geom, &params, None)?;
     let ms = start.elapsed().as_secs_f32() * 1e3;
     let words = flat::serialize_as(&tree, geom, ms, options.layout, options.leaves)?;
-    Owned::from_words(&words)
-        .map_err(|e| format!("the built tree does not validate ({e}): please report this mesh"))
+    Owned::from_built_words(&words)
+        .map_err(|e| format!("the built tree does not open ({e}): please report this mesh"))
 }

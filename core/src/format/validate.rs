@@ -16,6 +16,16 @@ struct SectionSpec {
     bit: u32,
 }
 
+/// How much of [`Scene::open`]'s checking the words need.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Origin {
+    /// Words from outside (a file, bytes, the network): everything is checked.
+    Outside,
+    /// Words this process's own builder and serializer just wrote: only what keeps every access
+    /// in range and every walk finite (see [`Scene::from_built_words`]).
+    Built,
+}
+
 impl<'a> Scene<'a> {
     /// Validates `words` and returns a view of it. Runs in time linear in its length and never
     /// panics, whatever the words.
@@ -23,6 +33,40 @@ impl<'a> Scene<'a> {
     /// # Errors
     /// The first problem found, as a [`FormatError`].
     pub fn from_words(words: &'a [u32]) -> Result<Self, FormatError> {
+        Self::open(words, Origin::Outside)
+    }
+
+    /// Opens `words` that this process's own builder and serializer just wrote (the host
+    /// library's `kdray::flat::serialize`), with only the checks that keep every access in range
+    /// and every walk finite: the header (magic, version, length, contents, reserved words), the
+    /// sections' bounds and overlaps, the scene box, the tree's pre-order layout and its leaves'
+    /// ranges and ids ([`Self::validate_tree`], linear in the nodes and the index list), the
+    /// groups' ranges and, for the wide section, that each reference a walk can enter points
+    /// forward to a wide node or at a leaf in range.
+    ///
+    /// What it trusts, and so skips: the checksum (no storage or transfer in between can have
+    /// damaged them), the geometry (finite vertices, each threshold equal to its recomputed
+    /// [`crate::triangle::Triangle::min_det2`], every triangle and sphere inside the scene box),
+    /// the input ids, the groups' contents (each rebuilt from its triangle records) and the wide
+    /// nodes' cuts and boxes (recomputed from the node section). Those checks are what make a
+    /// *crafted* file's answers the ones of the scene it stores; the builder makes them true by
+    /// construction, and the tests check that [`Self::from_words`] accepts every tree it builds
+    /// (`tests/tests/built_words.rs`).
+    ///
+    /// Why it is safe on words that are wrong anyway: the core has no `unsafe`, so every access is
+    /// bounds-checked, and what the walks rely on to end is kept: every child index (binary and
+    /// wide) points forward, so no walk can loop. Wrong words give wrong answers or, at an access
+    /// out of range, a panic, never undefined behaviour or an endless walk. Use [`Self::from_words`]
+    /// for anything read from outside this process.
+    ///
+    /// # Errors
+    /// The first problem found, as a [`FormatError`] (none for words the builder wrote).
+    pub fn from_built_words(words: &'a [u32]) -> Result<Self, FormatError> {
+        Self::open(words, Origin::Built)
+    }
+
+    fn open(words: &'a [u32], origin: Origin) -> Result<Self, FormatError> {
+        let outside = origin == Origin::Outside;
         if words.len() < HEADER_WORDS {
             return Err(FormatError::TooShort);
         }
@@ -40,7 +84,7 @@ impl<'a> Scene<'a> {
             });
         }
         let stored = u64::from(h(header::CHECKSUM)) | u64::from(h(header::CHECKSUM + 1)) << 32;
-        if stored != checksum(words) {
+        if outside && stored != checksum(words) {
             return Err(FormatError::Checksum);
         }
         if words[header::RESERVED..HEADER_WORDS]
@@ -214,37 +258,23 @@ impl<'a> Scene<'a> {
             groups: words_of(8).as_chunks().0,
             wide: words_of(9).as_chunks().0,
         };
-        let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
-        let triangles_ok = scene.tris.iter().all(|t| {
-            let tri = stored_triangle(t);
-            finite(&t[..9])
-                && tri.e1.is_finite()
-                && tri.e2.is_finite()
-                && tri.min_det2().to_bits() == t[9].to_bits()
-                && !tri.is_too_large()
-        });
-        if !(triangles_ok && finite(scene.spheres) && finite(scene.normals) && finite(scene.uvs))
-            || scene
-                .spheres
-                .chunks_exact(stride::SPHERE)
-                .any(|s| !(s[3] > 0.0))
-        {
-            return Err(FormatError::NonFiniteGeometry);
-        }
-        scene.check_inside_bounds()?;
-        if let Some(i) = scene.input_ids.iter().position(|&id| id as usize >= n_tris) {
-            return Err(FormatError::BadInputId { triangle: i as u32 });
+        if outside {
+            scene.check_geometry(n_tris)?;
         }
         if scene.nodes.is_empty() {
             return Err(FormatError::BadDepth);
         }
-        let depth = scene.validate_tree(n_prims)?;
+        let depth = scene.validate_tree(n_prims, origin)?;
         if depth != scene.depth {
             return Err(FormatError::BadDepth);
         }
         if contents & contents::WIDE != 0 {
             #[cfg(feature = "wide")]
-            crate::traverse::wide::validate::validate(&scene, scene.wide)?;
+            if outside {
+                crate::traverse::wide::validate::validate(&scene, scene.wide)?;
+            } else {
+                crate::traverse::wide::validate::forward_refs(&scene, scene.wide)?;
+            }
             // Without the `wide` feature nothing walks the section: it is set aside unread (the
             // walks take the binary nodes, with the same closest hits), so the build links no
             // validation of it (5.8 KB of the firmware's `.text`). So `wide_nodes()` is empty in
@@ -257,6 +287,34 @@ impl<'a> Scene<'a> {
         Ok(scene)
     }
 
+    /// The geometry is finite, each threshold is its triangle's recomputed
+    /// [`crate::triangle::Triangle::min_det2`], every hittable primitive lies inside the bounds
+    /// and every input id names a triangle.
+    fn check_geometry(&self, n_tris: usize) -> Result<(), FormatError> {
+        let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
+        let triangles_ok = self.tris.iter().all(|t| {
+            let tri = stored_triangle(t);
+            finite(&t[..9])
+                && tri.e1.is_finite()
+                && tri.e2.is_finite()
+                && tri.min_det2().to_bits() == t[9].to_bits()
+                && !tri.is_too_large()
+        });
+        if !(triangles_ok && finite(self.spheres) && finite(self.normals) && finite(self.uvs))
+            || self
+                .spheres
+                .chunks_exact(stride::SPHERE)
+                .any(|s| !(s[3] > 0.0))
+        {
+            return Err(FormatError::NonFiniteGeometry);
+        }
+        self.check_inside_bounds()?;
+        if let Some(i) = self.input_ids.iter().position(|&id| id as usize >= n_tris) {
+            return Err(FormatError::BadInputId { triangle: i as u32 });
+        }
+        Ok(())
+    }
+
     /// Walks the tree once depth-first, below child first, checking that the nodes are visited in
     /// exactly the order `0, 1, 2, …` (the pre-order layout the builder writes). That makes every
     /// child index greater than its parent's, every node reachable exactly once, and so bounds
@@ -265,7 +323,9 @@ impl<'a> Scene<'a> {
     /// The leaves' index-list ranges must tile the list in that same order (see "Cost of
     /// validation" in the [module doc](super)): one pass over the list checks every id, and each
     /// leaf costs O(1), so the whole walk is linear in the words.
-    fn validate_tree(&self, n_prims: u32) -> Result<u32, FormatError> {
+    ///
+    /// Words from this process's builder ([`Origin::Built`]) skip only the groups' contents.
+    fn validate_tree(&self, n_prims: u32, origin: Origin) -> Result<u32, FormatError> {
         let n_nodes = self.node_count();
         if let Some(i) = self.indices.iter().position(|&p| p >= n_prims) {
             return Err(FormatError::BadIndex { index: i as u32 });
@@ -288,7 +348,7 @@ impl<'a> Scene<'a> {
             next += 1;
             let node = self.node(index);
             if node.is_leaf() {
-                self.validate_leaf(index, node, n_prims, &mut next_index)?;
+                self.validate_leaf(index, node, n_prims, origin, &mut next_index)?;
                 current = stack.pop();
             } else {
                 let axis = node.axis();
@@ -361,6 +421,7 @@ impl<'a> Scene<'a> {
         index: u32,
         node: Node,
         n_prims: u32,
+        origin: Origin,
         next_index: &mut usize,
     ) -> Result<(), FormatError> {
         let bad = FormatError::BadPrimitive { node: index };
@@ -368,7 +429,7 @@ impl<'a> Scene<'a> {
             0 => Ok(()),
             1 if node.payload() < n_prims => Ok(()),
             1 => Err(bad),
-            n if self.has_groups() => self.validate_groups(index, node, n, next_index),
+            n if self.has_groups() => self.validate_groups(index, node, n, origin, next_index),
             n => {
                 let start = node.payload() as usize;
                 let end = start.checked_add(n as usize).ok_or(bad)?;
@@ -395,6 +456,7 @@ impl<'a> Scene<'a> {
         index: u32,
         node: Node,
         n: u32,
+        origin: Origin,
         next_group: &mut usize,
     ) -> Result<(), FormatError> {
         let bad = FormatError::BadPrimitive { node: index };
@@ -407,6 +469,10 @@ impl<'a> Scene<'a> {
         }
         if start != *next_group {
             return Err(FormatError::IndexOrder { node: index });
+        }
+        *next_group = end;
+        if origin == Origin::Built {
+            return Ok(());
         }
         let mut left = n as usize;
         for g in &self.groups[start..end] {
@@ -422,7 +488,6 @@ impl<'a> Scene<'a> {
                 return Err(FormatError::BadGroup { node: index });
             }
         }
-        *next_group = end;
         Ok(())
     }
 }

@@ -101,3 +101,35 @@ pub fn validate(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
     }
     Ok(())
 }
+
+/// What the walk ([`super::walk`]) needs of the wide section of words this process's builder
+/// wrote ([`Scene::from_built_words`]) to stay in range and end: every reference a ray can enter
+/// is a leaf of the node section or a wide node after its own, so every path through the section
+/// is at most its length. A slot a ray can never enter is one whose box is [`EMPTY_BOX`]
+/// (low = +∞, high = −∞ on every axis: no slab test enters it, whatever the direction), which is
+/// how the builder writes the slots past a node's count (their reference 0; [`validate`] accepts
+/// them on the same ground). Linear in the section, without the node section's cuts or the
+/// boxes' contents.
+///
+/// # Errors
+/// [`FormatError::BadWideNode`] for a node with a reference out of range or pointing back.
+pub fn forward_refs(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
+    let n_wide = wide.len();
+    if n_wide == 0 || n_wide >= LEAF_REF as usize {
+        return Err(FormatError::BadContents);
+    }
+    for (w, stored) in wide.iter().enumerate() {
+        for k in 0..WIDTH {
+            let r = stored[REFS + k];
+            let ok = if r & LEAF_REF != 0 {
+                (r & !LEAF_REF) < scene.node_count()
+            } else {
+                (w + 1..n_wide).contains(&(r as usize))
+            };
+            if !ok && slot_box(stored, k) != EMPTY_BOX {
+                return Err(FormatError::BadWideNode { node: w as u32 });
+            }
+        }
+    }
+    Ok(())
+}

@@ -173,19 +173,20 @@ function buildWords(kd, positions, indices, [layout, leaves, quality]) {
   }
   try {
     const words = new Uint8Array(b.memory.buffer, b.kdj_words(handle) >>> 0, 4 * b.kdj_word_count(handle));
-    return guarded(() => load(kd, words, 'the built tree'), 'cannot load the built tree');
+    return guarded(() => load(kd, words, 'the built tree', true), 'cannot load the built tree');
   } finally {
     b.kdj_drop(handle);
     if (b.memory.buffer.byteLength > BUILDER_KEEP) builder = null;
   }
 }
 
-// Loads .kdt bytes into the scenes' instance; returns the scene's handle.
-function load(kd, bytes, what) {
+// Loads .kdt bytes into the scenes' instance; returns the scene's handle. `built`: the words the
+// builder instance just wrote (opened without validating them again), never bytes from outside.
+function load(kd, bytes, what, built = false) {
   const p = put(kd, bytes.length ? bytes : new Uint8Array(1), what);
   let handle;
   try {
-    handle = kd.kdj_load(p, bytes.length);
+    handle = built ? kd.kdj_load_built(p, bytes.length) : kd.kdj_load(p, bytes.length);
   } finally {
     kd.kdj_free(p);
   }

@@ -47,13 +47,21 @@ struct Owned {
 }
 
 impl Owned {
-    fn new(words: Vec<u32>) -> Result<Self, String> {
+    /// `built`: the words are this package's builder's own ([`Scene::from_built_words`]: the
+    /// header, sections and tree shape checked, not the checksum or the geometry), else they come
+    /// from outside ([`Scene::from_words`]).
+    fn new(words: Vec<u32>, built: bool) -> Result<Self, String> {
         let words: &'static mut [u32] = Box::leak(words.into_boxed_slice());
         let ptr: *mut [u32] = words;
         // SAFETY: `ptr` was just made from the leaked box and nothing else refers to it; the
         // shared slice lives until `drop`, which first drops the scene that borrows it.
         let shared: &'static [u32] = unsafe { &*ptr };
-        match Scene::from_words(shared) {
+        let opened = if built {
+            Scene::from_built_words(shared)
+        } else {
+            Scene::from_words(shared)
+        };
+        match opened {
             Ok(scene) => Ok(Self {
                 scene: Some(scene),
                 words: ptr,
@@ -169,9 +177,9 @@ impl State {
             .ok_or((NO_SCENE, "the scene was disposed".to_string()))
     }
 
-    /// Stores `words` (validated) as a new scene; returns its handle.
-    fn add(&mut self, words: Vec<u32>) -> Result<i32, (i32, String)> {
-        let owned = Owned::new(words).map_err(bad)?;
+    /// Stores `words` (opened as [`Owned::new`] says) as a new scene; returns its handle.
+    fn add(&mut self, words: Vec<u32>, built: bool) -> Result<i32, (i32, String)> {
+        let owned = Owned::new(words, built).map_err(bad)?;
         if owned.scene().contents() & contents::SPHERES != 0 {
             return Err(bad(
                 "the scene holds spheres: this package traces triangle meshes only",
@@ -269,13 +277,26 @@ pub extern "C" fn kdj_build(
         };
         let tris = mesh::triangles(positions, indices).map_err(bad)?;
         let words = mesh::build_words(tris, layout, leaves, quality).map_err(bad)?;
-        s.add(words)
+        s.add(words, true)
     })
 }
 
-/// Loads a scene from `n_bytes` bytes of a `.kdt` at `ptr` (copied). Returns its handle.
+/// Loads a scene from `n_bytes` bytes of a `.kdt` at `ptr` (copied), validated. Returns its
+/// handle.
 #[unsafe(no_mangle)]
 pub extern "C" fn kdj_load(ptr: u32, n_bytes: u32) -> i32 {
+    load(ptr, n_bytes, false)
+}
+
+/// [`kdj_load`] for the words [`kdj_build`] just wrote in the package's builder instance (the
+/// same module), which `src/core.js` copies here: opened with [`Scene::from_built_words`], not
+/// validated again. Never for bytes from outside the package.
+#[unsafe(no_mangle)]
+pub extern "C" fn kdj_load_built(ptr: u32, n_bytes: u32) -> i32 {
+    load(ptr, n_bytes, true)
+}
+
+fn load(ptr: u32, n_bytes: u32, built: bool) -> i32 {
     with_state(|s| {
         let bytes = s.slice::<u8>(ptr, n_bytes)?;
         if !bytes.len().is_multiple_of(4) {
@@ -291,7 +312,7 @@ pub extern "C" fn kdj_load(ptr: u32, n_bytes: u32) -> i32 {
                 .chunks_exact(4)
                 .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])),
         );
-        s.add(words)
+        s.add(words, built)
     })
 }
 
