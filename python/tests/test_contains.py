@@ -49,3 +49,35 @@ def test_crossings_through_a_vertex_count_once():
     every = scene.intersect_all([-9, 0, 0], [1, 0, 0])
     assert every.t.tolist() == [5.0, 13.0]
     assert scene.count_intersections([[-9, 0, 0], [0, -9, 0], [0, 0, -9]], np.eye(3)).tolist() == [2, 2, 2]
+
+
+def stacked_quads(n):
+    """`n` unit squares (two triangles each, sharing a diagonal) in the planes z = 0 … n − 1."""
+    z = np.repeat(np.arange(n, dtype=np.float32), 4)
+    xy = np.tile(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32), (n, 1))
+    vertices = np.column_stack([xy, z])
+    base = 4 * np.arange(n)[:, None]
+    faces = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]]).astype(np.int64)
+    return vertices, faces
+
+
+@pytest.mark.parametrize("n", [1, 100, 2000])
+def test_every_stacked_quad_is_crossed_once(rng, n):
+    """Rays along z through `n` stacked squares cross each exactly once, also through the shared
+    diagonal and the corners (one walk collects all of them; issue 38)."""
+    v, f = stacked_quads(n)
+    scene = kdray.Scene(v, f)
+    inside = rng.uniform(0.01, 0.99, (200, 2))
+    seams = np.array([[0.5, 0.5], [0.25, 0.25], [0.0, 0.0], [1.0, 1.0], [0.0, 0.5], [0.5, 1.0]])
+    xy = np.vstack([inside, seams])
+    origins = np.column_stack([xy, np.full(len(xy), -1.0)])
+    counts = scene.count_intersections(origins, [0, 0, 1])
+    # Inside and through the diagonal: n each. On the squares' outline the count is that of a ray
+    # moved by an infinitesimal step (simulation of simplicity): n or 0, never another number.
+    assert counts[: len(inside) + 2].tolist() == [n] * (len(inside) + 2)
+    assert set(counts[len(inside) + 2 :].tolist()) <= {0, n}
+    every = scene.intersect_all(origins[:3], [0, 0, 1])
+    assert len(every.t) == 3 * n
+    for r in range(3):
+        t = every.t[every.ray == r]
+        np.testing.assert_array_equal(t, np.arange(n, dtype=np.float32) + 1)
