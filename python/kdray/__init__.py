@@ -27,7 +27,7 @@ from typing import Any, NamedTuple, Optional, Tuple
 
 import numpy as np
 
-from . import _kdray
+from . import _kdray, _pickle
 
 __all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA"]
 
@@ -90,12 +90,13 @@ def _threads(threads: Any) -> Optional[int]:
 
 
 def _float_array(x: Any, name: str) -> np.ndarray:
-    """``x`` as a float32 array: read in place when it is one, converted once otherwise."""
-    if type(x) is np.ndarray and x.dtype == np.float32:
+    """``x`` as a float32 array: read in place when it is one, converted once otherwise (or
+    copied once when it is not aligned, as an array unpickled from a byte stream may be)."""
+    if type(x) is np.ndarray and x.dtype == np.float32 and x.flags.aligned:
         return x
     a = np.asarray(x)
     if a.dtype == np.float32:
-        return a
+        return a if a.flags.aligned else a.copy()
     if a.dtype.kind not in "fiu":
         raise TypeError(f"{name} must hold numbers (float32 or float64), not {a.dtype}")
     with np.errstate(over="ignore", invalid="ignore"):
@@ -245,7 +246,7 @@ class Scene:
                 raise ValueError(f"faces must have shape (M, 3), not {f.shape}")
             if f.dtype.kind == "u" and f.size and f.max() > np.iinfo(np.int64).max:
                 raise ValueError(f"faces holds {f.max()}, past any vertex index")
-            f = np.ascontiguousarray(f, dtype=np.int64)
+            f = np.require(f, np.int64, "CA")
         self._tree = _kdray.Tree.build(
             np.ascontiguousarray(v), f, opts["layout"], opts["leaves"], opts["quality"], threads
         )
@@ -265,10 +266,18 @@ class Scene:
         *,
         watertight: bool = False,
         threads: Optional[int] = None,
+        mmap: bool = False,
         **build_options: str,
     ) -> "Scene":
         """Loads a ``.kdt`` (a built tree, validated) or builds one from a mesh file: ``.ply``,
-        ``.ply.gz``, ``.obj``, ``.tri`` (build options as for :class:`Scene`)."""
+        ``.ply.gz``, ``.obj``, ``.tri`` (build options as for :class:`Scene`).
+
+        ``mmap=True`` maps a ``.kdt`` read-only instead of reading it: the processes of a host
+        that map the same file share its pages (one copy of the tree in memory, whatever the
+        number of workers). The file must then stay as it is while the scene lives (``save``
+        replaces a file rather than rewriting it, which is safe); truncating it under a mapped
+        scene is a crash, as with any memory map.
+        """
         opts = _build_options(build_options)
         threads = _threads(threads)
         try:
@@ -281,6 +290,12 @@ class Scene:
             raise TypeError(f"path must be a str or os.PathLike, not {type(path).__name__}")
         if not os.path.exists(path):
             raise FileNotFoundError(errno.ENOENT, "no such file", path)
+        if mmap:
+            if not path.lower().endswith(".kdt"):
+                raise ValueError(
+                    f"mmap=True maps a saved tree (.kdt), not a mesh file: {path}"
+                )
+            return cls._wrap(_kdray.map_kdt(path), watertight)
         tree = _kdray.Tree.load(path, opts["layout"], opts["leaves"], opts["quality"], threads)
         return cls._wrap(tree, watertight)
 
@@ -298,6 +313,25 @@ class Scene:
         # once more, onto cache lines, as it is validated).
         words = np.require(np.frombuffer(data, dtype="<u4"), requirements="CA")
         return cls._wrap(_kdray.Tree.from_words(words), watertight)
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        """Pickles the tree's words (out of band with protocol 5) and ``watertight``; unpickling
+        validates the words, never rebuilds (kdray/_pickle.py).
+
+        >>> import pickle, kdray
+        >>> scene = kdray.Scene([[0, 0, 0], [1, 0, 0], [0, 1, 0]], watertight=True)
+        >>> pickle.loads(pickle.dumps(scene, protocol=5))
+        kdray.Scene(1 triangles, 1 nodes, 512 bytes, watertight=True)
+        """
+        return _pickle.reduce(self, operator.index(protocol))
+
+    def __copy__(self) -> "Scene":
+        """A scene sharing this one's tree, which nothing changes once built (no copy)."""
+        return Scene._wrap(self._tree, self.watertight)
+
+    def __deepcopy__(self, memo: Any) -> "Scene":
+        """As :meth:`__copy__`: the tree is immutable, so a deep copy shares it too."""
+        return Scene._wrap(self._tree, self.watertight)
 
     def to_bytes(self) -> bytes:
         """The tree as the bytes of a ``.kdt`` file."""

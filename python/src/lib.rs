@@ -12,8 +12,10 @@
 
 mod block;
 mod closest;
+mod mapped;
 mod mesh;
 mod owned;
+mod pickle;
 mod rays;
 
 use kdray::build::Quality;
@@ -460,6 +462,8 @@ impl Tree {
 #[pymodule]
 fn _kdray(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Tree>()?;
+    m.add_function(wrap_pyfunction!(pickle::words, m)?)?;
+    m.add_function(wrap_pyfunction!(mapped::map_kdt, m)?)?;
     m.add("CONTAINS_DIRECTION", rays::CONTAINS_DIRECTION)?;
     m.add("ISA", kdray_core::isa::name())?;
     Ok(())
