@@ -46,6 +46,7 @@ def client():
         dashboard_address=None,
         silence_logs=logging.ERROR,
     ) as cluster, distributed.Client(cluster) as client:
+        client.wait_for_workers(2)  # a broadcast reaches only the workers already there
         yield client
 
 
