@@ -3,8 +3,8 @@ its ``watertight`` option, never its mesh, so the receiver validates a tree (one
 words, as :meth:`kdray.Scene.load` does for a ``.kdt``) instead of building one.
 
 With pickle protocol 5 the words go as a :class:`pickle.PickleBuffer` over the tree's own
-memory: a ``buffer_callback`` (Dask's, ``multiprocessing``'s shared-memory tools) sends them
-out of band, without copying them into the pickle; in band they are copied into it once. The
+memory: a ``buffer_callback`` (Dask's, for one) sends them out of band, without copying them
+into the pickle; in band they are copied into it once. The
 receiver copies them once, onto cache lines, as it validates them.
 
 What arrives is data from elsewhere: anything but a whole, valid tree (truncated, damaged,
@@ -49,7 +49,7 @@ def restore(data: Any, watertight: Any) -> Any:
         raise ValueError(
             f"{_WHAT}: the tree is a {type(data).__name__}, not bytes"
         ) from None
-    if not view.contiguous:
+    if not view.c_contiguous:
         raise ValueError(f"{_WHAT}: the tree's buffer is not contiguous")
     view = view.cast("B")
     if view.nbytes % 4:
