@@ -1,5 +1,5 @@
 """How a :class:`kdray.Scene` travels to another process: ``pickle`` takes its tree's words and
-its ``watertight`` option, never its mesh, so the receiver validates a tree (one pass over the
+its options (``watertight``, ``origin``), never its mesh, so the receiver validates a tree (one pass over the
 words, as :meth:`kdray.Scene.load` does for a ``.kdt``) instead of building one.
 
 With pickle protocol 5 the words go as a :class:`pickle.PickleBuffer` over the tree's own
@@ -26,23 +26,28 @@ from . import _kdray
 _WHAT = "a pickled kdray.Scene"
 
 
-def reduce(scene: Any, protocol: int) -> Tuple[Any, Tuple[Any, bool]]:
+def reduce(scene: Any, protocol: int) -> Tuple[Any, Tuple[Any, ...]]:
     """``Scene.__reduce_ex__``: :func:`restore` and its arguments, the words (out of band for
-    protocol 5) and ``watertight``."""
+    protocol 5), ``watertight`` and ``origin`` (3 floats or ``None``)."""
     words = _kdray.words(scene._tree)  # a read-only view, not a copy
     if sys.byteorder != "little":
         words = words.astype("<u4")  # a .kdt's words are little-endian
     data = pickle.PickleBuffer(words) if protocol >= 5 else words.tobytes()
-    return restore, (data, scene.watertight)
+    origin = None if scene.origin is None else tuple(float(x) for x in scene.origin)
+    return restore, (data, scene.watertight, origin)
 
 
-def restore(data: Any, watertight: Any) -> Any:
+def restore(data: Any, watertight: Any, origin: Any = None) -> Any:
     """The scene that :func:`reduce` pickled, validated. Raises ``ValueError`` for anything
     else."""
     from . import Scene
 
     if type(watertight) is not bool:
         raise ValueError(f"{_WHAT}: watertight is {watertight!r}, not True or False")
+    if origin is not None and not (
+        type(origin) is tuple and len(origin) == 3 and all(type(x) is float for x in origin)
+    ):
+        raise ValueError(f"{_WHAT}: origin is {origin!r}, not None or 3 floats")
     try:
         view = memoryview(data)
     except TypeError:
@@ -62,4 +67,7 @@ def restore(data: Any, watertight: Any) -> Any:
         tree = _kdray.Tree.from_words(words)
     except ValueError as e:
         raise ValueError(f"{_WHAT}: {str(e).removeprefix('data: ')}") from None
-    return Scene._wrap(tree, watertight)
+    try:
+        return Scene._wrap(tree, watertight, origin)
+    except ValueError as e:  # an origin that is not finite
+        raise ValueError(f"{_WHAT}: {e}") from None

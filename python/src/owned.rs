@@ -7,6 +7,7 @@
 //! memory-mapped `.kdt` ([`Owned::validate`]).
 
 use crate::mapped::Words;
+use crate::stop::{self, Stop};
 use glam::Vec3;
 use kdray::Geometry;
 use kdray::build::{self, BuildParams, Quality};
@@ -68,6 +69,19 @@ pub struct Options {
     pub leaves: Leaves,
     pub quality: Quality,
     pub parallel: bool,
+}
+
+/// Checks that a build of `triangles` triangles can have its memory (the builder's allocations
+/// are not fallible: this probes their measured peak at once, as `kdray build` does,
+/// `kdray::memory::BUILD_BYTES_PER_PRIM` a triangle).
+///
+/// # Errors
+/// [`Stop::Memory`] if it cannot.
+pub fn probe_build(triangles: usize) -> Result<(), Stop> {
+    stop::probe(
+        (triangles as u64).saturating_mul(kdray::memory::BUILD_BYTES_PER_PRIM),
+        &format!("a build of {triangles} triangles"),
+    )
 }
 
 /// Builds the SAH kd-tree over `triangles` (input order), serializes it and validates it as a

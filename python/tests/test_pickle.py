@@ -33,6 +33,7 @@ def assert_same_answers(a, b):
     assert np.array_equal(a.count_intersections(o, d), b.count_intersections(o, d))
     assert np.array_equal(a.contains(o), b.contains(o))
     assert a.watertight == b.watertight
+    assert np.array_equal(a.origin, b.origin) if a.origin is not None else b.origin is None
     assert a.to_bytes() == b.to_bytes()
 
 
@@ -163,6 +164,36 @@ def test_malformed_arguments_are_refused(data, watertight, words):
 
     with pytest.raises(ValueError, match=words):
         restore(data, watertight)
+
+
+@pytest.mark.parametrize(
+    "origin, words",
+    [
+        ("auto", "origin is 'auto', not None or 3 floats"),
+        ((1.0, 2.0), r"origin is \(1.0, 2.0\)"),
+        ((1, 2, 3), r"origin is \(1, 2, 3\)"),
+        ((1.0, 2.0, float("nan")), r"origin is \(1.0, 2.0, nan\): every coordinate must be"),
+    ],
+)
+def test_malformed_origins_are_refused(origin, words):
+    from kdray._pickle import restore
+
+    data = kdray.Scene(*tetrahedron()).to_bytes()
+    with pytest.raises(ValueError, match="a pickled kdray.Scene: " + words):
+        restore(data, False, origin)
+
+
+def test_the_origin_travels(mesh):
+    v, f = mesh
+    far = kdray.Scene(v.astype(np.float64) + 1e6, f, origin="auto")
+    assert far.origin is not None
+    for back in (pickle.loads(pickle.dumps(far, protocol=p)) for p in (2, 5)):
+        assert back.origin.tolist() == far.origin.tolist()
+        o, d = random_rays(np.random.default_rng(9), 500)
+        o = o + 1e6
+        assert np.array_equal(back.intersect(o, d).t, far.intersect(o, d).t)
+    c = copy.deepcopy(far)
+    assert c.origin.tolist() == far.origin.tolist()
 
 
 def test_a_pickle_naming_the_restore_function_with_junk():
