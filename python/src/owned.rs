@@ -4,8 +4,10 @@
 //!
 //! Where the words come from: a mesh built by the host library's SAH builder and serializer
 //! ([`build`]: what `kdray build` does; opened with [`Scene::from_built_words`], trusted as this
-//! process's own), a `.kdt` file or its bytes ([`Owned::from_words`]: validated).
+//! process's own), a `.kdt` file or its bytes ([`Owned::from_words`]: validated), a
+//! memory-mapped `.kdt` ([`Owned::validate`]).
 
+use crate::mapped::Words;
 use crate::stop::{self, Stop};
 use glam::Vec3;
 use kdray::Geometry;
@@ -19,7 +21,7 @@ self_cell!(
     /// The words of a tree (64-byte aligned: the wide section on whole cache lines) and the
     /// validated scene that borrows them.
     pub struct Owned {
-        owner: Aligned,
+        owner: Words,
         #[covariant]
         dependent: Scene,
     }
@@ -32,6 +34,15 @@ impl Owned {
     /// # Errors
     /// What validation finds wrong (the core's `FormatError`), or spheres.
     pub fn from_words(words: &[u32]) -> Result<Self, String> {
+        Self::validate(Words::Copied(Aligned::new(words)))
+    }
+
+    /// [`Owned::from_words`] for words kept where they are (a mapped file's:
+    /// [`crate::mapped::map`]).
+    ///
+    /// # Errors
+    /// As [`Owned::from_words`].
+    pub fn validate(words: Words) -> Result<Self, String> {
         Self::open(words, false)
     }
 
@@ -42,11 +53,11 @@ impl Owned {
     /// # Errors
     /// As [`Owned::from_words`] (none expected).
     fn from_built_words(words: &[u32]) -> Result<Self, String> {
-        Self::open(words, true)
+        Self::open(Words::Copied(Aligned::new(words)), true)
     }
 
-    fn open(words: &[u32], built: bool) -> Result<Self, String> {
-        let owned = Owned::try_new(Aligned::new(words), |w| {
+    fn open(words: Words, built: bool) -> Result<Self, String> {
+        let owned = Owned::try_new(words, |w| {
             if built {
                 Scene::from_built_words(w)
             } else {
