@@ -1,5 +1,8 @@
 //! The flat scene format: one `&[u32]` of little-endian words, built by the host and validated
-//! once by [`Scene::from_words`]; every later access relies on what was validated here.
+//! once by [`Scene::from_words`]; every later access relies on what was validated here. Words
+//! this process's own builder just wrote may be opened with [`Scene::from_built_words`] instead,
+//! which keeps the checks every access and walk needs to stay in range and end, and trusts the
+//! rest (what and why: its doc).
 //!
 //! # Header (word index: meaning)
 //! ```text
