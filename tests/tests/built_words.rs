@@ -11,6 +11,7 @@ use kdray::build::{BuildParams, build};
 use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::format::{FormatError, HEADER_WORDS, header, seal};
 use kdray_core::traverse::Mode;
+use kdray_core::traverse::wide::REFS;
 use kdray_core::{Ray, Scene};
 use kdray_tests::strategies::{grid_geometry, traversal_ray, vec3};
 use proptest::prelude::*;
@@ -160,6 +161,15 @@ fn trusts_neither_the_header_nor_the_tree_shape() {
     assert!(matches!(
         Scene::from_built_words(&bad),
         Err(FormatError::BadChild { .. })
+    ));
+    // The first wide node's first slot (entered: its box is not empty) pointing back at itself.
+    let mut bad = words.clone();
+    let wide = words[header::WIDE_OFFSET] as usize;
+    assert_ne!(wide, 0, "the sample has wide nodes");
+    bad[wide + REFS] = 0;
+    assert!(matches!(
+        Scene::from_built_words(&bad),
+        Err(FormatError::BadWideNode { node: 0 })
     ));
 }
 
