@@ -27,6 +27,10 @@
 //! let hit: Hit = scene.intersect(&ray);
 //! assert!(hit.is_hit());
 //! assert!((hit.t - 2.0).abs() < 1e-6);
+//! // `hit.prim` numbers triangles in the scene's storage order (the leaves' order, which
+//! // `scene.triangle(hit.prim)` and every accessor take); the mesh's own index is `input_id`:
+//! let top_face = scene.input_id(hit.prim);
+//! assert!(top_face < 12);
 //! // A miss is `Hit::MISS`: t = inf, prim = 0xFFFFFFFF.
 //! assert!(!scene.intersect(&Ray::new(Vec3::new(3.0, 3.0, 3.0), Vec3::X)).is_hit());
 //! // Any hit (shadow rays): is anything within t < 1.5?

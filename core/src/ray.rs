@@ -63,8 +63,15 @@ impl Ray {
 /// The closest intersection found along a ray.
 ///
 /// `u`, `v` are the barycentric coordinates of a triangle hit, `p = v0 + u·(v1 − v0) + v·(v2 − v0)`;
-/// for a sphere they are 0. `prim` is the primitive's index in input order (triangles first, then
-/// spheres).
+/// for a sphere they are 0.
+///
+/// `prim` is the primitive's id in the scene's **storage order** (triangles first, then spheres):
+/// the id every accessor of [`Scene`](crate::Scene) takes (`triangle`, `material`, …). The
+/// builder stores triangles in the order its leaves reach them, so this is not the mesh's
+/// order: [`Scene::input_id`](crate::Scene::input_id)`(hit.prim)` is the triangle's index in
+/// the builder's input (the mesh's triangle order), what the hits file, the Python and the
+/// JavaScript packages report. The two agree where
+/// [`Scene::reorders_triangles`](crate::Scene::reorders_triangles) is false (and for spheres).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,

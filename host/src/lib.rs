@@ -26,12 +26,20 @@
 //!
 //! let scene = Scene::from_words(&words).unwrap();
 //! let hit = scene.intersect(&Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z));
-//! assert_eq!(hit.prim, 0); // the triangle
+//! // `hit.prim` is the id in the scene's storage order (the leaves' order, which every accessor
+//! // takes); `input_id` maps it to the index in `geom` (here both are 0, the only triangle).
+//! assert_eq!(scene.input_id(hit.prim), 0); // the triangle
 //! assert!((hit.t - 1.0).abs() < 1e-6);
 //! let hit = scene.intersect(&Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::NEG_Z));
-//! assert_eq!(hit.prim, 1); // the sphere: triangles are numbered first, then spheres
+//! assert_eq!(scene.input_id(hit.prim), 1); // the sphere: triangles are numbered first, then spheres
 //! assert!((hit.t - 1.5).abs() < 1e-6);
 //! ```
+//!
+//! With many triangles the two orders differ: the serializer stores triangles in the order the
+//! leaves reach them, so that neighbours share cache lines. `scene.triangle(hit.prim)` is the hit
+//! triangle; `scene.input_id(hit.prim)` its index in `geom.triangles`, what `kdray trace`'s hits
+//! file, `kdray::rays::to_input_ids`, the Python package's `prim` and the npm package's
+//! `faceIndex` report.
 //!
 //! Scene files (`docs/SCENE.md`) load with [`scene::load_scene`] (camera, materials, geometry);
 //! meshes with [`input::load_input`] (PLY, OBJ, `.tri`); [`progressive`] renders on all cores.

@@ -260,9 +260,10 @@ impl<'a> Scene<'a> {
         Self { wide: &[], ..*self }
     }
 
-    /// The input index of primitive `prim` (what a hit should report): its position in the
-    /// builder's input for a triangle stored out of input order, else `prim` itself (spheres,
-    /// [`Hit::MISS`](crate::Hit::MISS)'s id, scenes stored in input order).
+    /// The input index of primitive `prim`, a storage-order id as [`Hit::prim`](crate::Hit)
+    /// holds: its position in the builder's input (the mesh's triangle order) for a triangle
+    /// stored out of input order, else `prim` itself (spheres, [`Hit::MISS`](crate::Hit::MISS)'s
+    /// id, scenes stored in input order).
     #[inline]
     pub fn input_id(&self, prim: u32) -> u32 {
         self.input_ids.get(prim as usize).copied().unwrap_or(prim)
