@@ -10,8 +10,8 @@
 //! a microcontroller or in WebAssembly:
 //!
 //! ```
-//! use glam::Vec3;
 //! use kdray::Geometry;
+//! use kdray::glam::Vec3;
 //! use kdray::build::{BuildParams, build};
 //! use kdray_core::{Ray, Scene};
 //!
@@ -50,6 +50,28 @@
 //! nothing is compiled again; without it cargo unifies the whole workspace's features, the
 //! benches' included, and rebuilds the dependency tree.) The
 //! command line: `kdray --help`.
+//!
+//! ## As a library: features
+//! The default feature, `cli`, brings the command line and what only it uses: clap, indicatif,
+//! png, exr, plotters and rayon, and the modules [`accuracy`], [`converge`], [`cpu`],
+//! [`image`], [`plot`] and [`progressive`]. A program that loads, builds and traces needs none
+//! of it:
+//! ```toml
+//! [dependencies]
+//! kdray = { version = "0.1", default-features = false, features = ["parallel"] }
+//! kdray-core = "0.1"
+//! ```
+//! `parallel` keeps the multithreaded build (rayon; [`build::BuildParams::parallel`]); leave it
+//! out too for a single-threaded build or for `wasm32-unknown-unknown` (the npm package's
+//! module). Without `cli` the crate compiles about half as long and pulls in none of the command
+//! line's dependencies.
+//!
+//! ## glam
+//! Vectors in this API ([`Geometry`]'s triangles, cameras, rays) are [`glam`]'s (0.34); the
+//! crate re-exports it as `kdray::glam`, so a program need not name a matching version itself:
+//! `use kdray::glam::Vec3;`.
+
+pub use glam;
 
 pub mod error;
 pub mod files;
