@@ -236,3 +236,39 @@ def test_prim_is_the_faces_row_on_a_mesh_of_many_triangles(options):
         mine = every.ray == k
         assert every.prim[mine][np.argmin(every.t[mine])] == i
 
+
+def test_version_is_the_packages():
+    import pathlib
+    import re
+
+    pyproject = (pathlib.Path(__file__).parents[1] / "pyproject.toml").read_text()
+    assert kdray.__version__ == re.search(r'^version = "(.*)"', pyproject, re.M).group(1)
+
+
+def test_stubs_name_the_build_options_values():
+    """The stub types ``layout``, ``leaves`` and ``quality`` as the ``Literal`` of the values
+    the package accepts, in every signature that takes them."""
+    import ast
+    import pathlib
+
+    stub = ast.parse((pathlib.Path(kdray.__file__).parent / "__init__.pyi").read_text())
+    aliases = {
+        node.targets[0].id: node.value
+        for node in stub.body
+        if isinstance(node, ast.Assign) and isinstance(node.targets[0], ast.Name)
+    }
+
+    def literal(annotation):
+        if isinstance(annotation, ast.Name):
+            annotation = aliases[annotation.id]
+        assert isinstance(annotation, ast.Subscript) and ast.unparse(annotation.value) == "Literal"
+        return {e.value for e in ast.walk(annotation.slice) if isinstance(e, ast.Constant)}
+
+    scene = next(n for n in stub.body if isinstance(n, ast.ClassDef) and n.name == "Scene")
+    checked = 0
+    for fn in (n for n in scene.body if isinstance(n, ast.FunctionDef)):
+        for arg in fn.args.kwonlyargs:
+            if arg.arg in kdray._BUILD_OPTIONS:
+                assert literal(arg.annotation) == set(kdray._BUILD_OPTIONS[arg.arg]), (fn.name, arg.arg)
+                checked += 1
+    assert checked == 6
