@@ -62,12 +62,13 @@
 //! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (Rukin §5).
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
 //! - [`camera`]: pinhole, Rukin's fisheye and parallel cameras, its thick lens and lens array.
-//! - [`format`], [`node`]: the flat scene format and its validation.
+//! - [`format`], [`node`]: the flat scene format and its validation, the wide section's
+//!   encoding included ([`format::wide`]).
 //! - [`traverse`]: every walk of the tree, one module each, and what they share (its module doc
 //!   says which to use when): [`traverse::single`], one ray's closest or any hit;
 //!   [`traverse::steps`], that walk as resumable steps over an explicit state;
-//!   [`traverse::packet`], 4- and 8-wide packets; [`traverse::wide`], the tree collapsed into
-//!   eight-wide nodes with tight boxes and their single-ray walk; [`traverse::stream`], ray
+//!   [`traverse::packet`], 4- and 8-wide packets; [`traverse::wide`], the single-ray walk over
+//!   the tree collapsed into eight-wide nodes with tight boxes; [`traverse::stream`], ray
 //!   streams — many rays in one call, sorted into packets and single rays, answers in input
 //!   order.
 //! - [`render`]: the render kernel, a path tracer writing into a caller's buffer.
