@@ -5,8 +5,8 @@ use glam::Vec3;
 
 /// A ray `o + t·d` restricted to the open interval `tmin < t < tmax`.
 ///
-/// `dir` must be normalized (docs/FORMATS.md's rays file says so, and `kdray trace` refuses a ray file
-/// whose finite directions are not, within 1e-3). The kernels then report `t` as a distance. An
+/// `dir` must be normalized (docs/FORMATS.md's rays file says so, and `kdray trace` refuses a
+/// ray file whose finite directions are not, within 1e-3). The kernels then report `t` as a distance. An
 /// unnormalized direction breaks nothing in memory or time, and `t` is then in units of `|dir|`,
 /// but the triangle kernels' parallel test compares `det²` with a threshold set for unit
 /// directions: a direction shorter than about 2e-7 counts every triangle as parallel and misses.

@@ -31,7 +31,8 @@
 //! assert_eq!(scene.input_id(hit.prim), 0); // the triangle
 //! assert!((hit.t - 1.0).abs() < 1e-6);
 //! let hit = scene.intersect(&Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::NEG_Z));
-//! assert_eq!(scene.input_id(hit.prim), 1); // the sphere: triangles are numbered first, then spheres
+//! // The sphere: triangles are numbered first, then spheres.
+//! assert_eq!(scene.input_id(hit.prim), 1);
 //! assert!((hit.t - 1.5).abs() < 1e-6);
 //! ```
 //!
