@@ -6,11 +6,13 @@ from typing import Any, Literal, NamedTuple, Optional, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "__version__"]
+__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS", "__version__"]
 
 CONTAINS_DIRECTION: Tuple[float, float, float]
 ISA: str
+MAX_THREADS: int
 __version__: str
+_Origin = Union[None, str, npt.ArrayLike]
 
 #: The build options' values (``kdray build --layout/--leaves/--quality``).
 Layout = Literal["wide", "nodes"]
@@ -25,7 +27,7 @@ class Hits(NamedTuple):
     prim: npt.NDArray[np.int64]
     u: npt.NDArray[np.float32]
     v: npt.NDArray[np.float32]
-    points: Optional[npt.NDArray[np.float32]] = ...
+    points: Optional[npt.NDArray[Any]] = ...
     normals: Optional[npt.NDArray[np.float32]] = ...
 
 class AllHits(NamedTuple):
@@ -35,6 +37,7 @@ class AllHits(NamedTuple):
 
 class Scene:
     watertight: bool
+    origin: Optional[npt.NDArray[np.float64]]
     def __init__(
         self,
         vertices: _Floats,
@@ -42,6 +45,7 @@ class Scene:
         *,
         watertight: bool = False,
         threads: Optional[int] = None,
+        origin: _Origin = None,
         layout: Layout = "wide",
         leaves: Leaves = "groups",
         quality: Quality = "fast",
@@ -53,13 +57,18 @@ class Scene:
         *,
         watertight: bool = False,
         threads: Optional[int] = None,
+        origin: _Origin = None,
         layout: Layout = "wide",
         leaves: Leaves = "groups",
         quality: Quality = "fast",
     ) -> "Scene": ...
     @classmethod
     def from_bytes(
-        cls, data: Union[bytes, bytearray, memoryview], *, watertight: bool = False
+        cls,
+        data: Union[bytes, bytearray, memoryview],
+        *,
+        watertight: bool = False,
+        origin: _Origin = None,
     ) -> "Scene": ...
     def to_bytes(self) -> bytes: ...
     def save(self, path: _Path) -> None: ...
