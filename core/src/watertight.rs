@@ -53,8 +53,8 @@
 //! Triangles whose products overflow f32 (far from the origin: `|e1|·|e2|·|o − v0|` past about
 //! `3.4·10³⁸`) are computed again in f64 ([`crate::far`]).
 
+use crate::math::gamma;
 use crate::ray::Ray;
-use crate::spawn::gamma;
 use crate::triangle::Triangle;
 use core::ops::{Add, Mul, Sub};
 use glam::Vec3;

@@ -244,7 +244,7 @@ impl<'a> Scene<'a> {
         }
         if contents & contents::WIDE != 0 {
             #[cfg(feature = "wide")]
-            crate::traverse::wide::validate::validate(&scene, scene.wide)?;
+            super::wide::validate::validate(&scene, scene.wide)?;
             // Without the `wide` feature nothing walks the section: it is set aside unread (the
             // walks take the binary nodes, with the same closest hits), so the build links no
             // validation of it (5.8 KB of the firmware's `.text`). So `wide_nodes()` is empty in

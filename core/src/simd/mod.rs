@@ -1,4 +1,4 @@
-//! SIMD building blocks for 4- and 8-wide ray packets (DESIGN.md, "SIMD").
+//! SIMD building blocks for 4- and 8-wide ray packets (ARCHITECTURE.md, "Packets written once over a lane trait").
 //!
 //! - [`lanes`]: the [`Lanes`] trait over `wide`'s [`f32x4`] and [`f32x8`], and [`Vec3x`], a
 //!   struct-of-arrays 3-vector. Kernels are written once, generic over it.

@@ -12,7 +12,7 @@
 use super::kernels::PrimHits;
 use super::lanes::{Lanes, set_lanes};
 use super::packet::RayPacket;
-use crate::spawn::gamma;
+use crate::math::gamma;
 use crate::triangle::Triangle;
 use crate::watertight::{Real, Shear, edge_functions_f64, t_error};
 use glam::Vec3;

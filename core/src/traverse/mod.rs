@@ -61,7 +61,7 @@ use crate::ray::Ray;
 use glam::Vec3;
 
 /// `γ₃ = 3ε / (1 − 3ε)`, with ε half an f32 ULP (PBR 3rd ed., §3.9.1).
-pub(crate) const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
+pub(crate) const GAMMA3: f32 = crate::math::gamma(3);
 
 /// A compile-time choice of which primitive kinds a kernel handles, so that a triangles-only
 /// scene runs no sphere code (and firmware naming one variant links only it), and of the triangle
