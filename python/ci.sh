@@ -3,7 +3,10 @@
 # workspace, which the main one's lints do not see), then the wheel built by `pip install
 # ./python` — maturin, fetched by pip as the build backend — into a fresh virtual environment
 # with numpy, pytest, trimesh and rtree (trimesh's own intersector needs it) from PyPI, then
-# pytest on python/tests and the docstrings' examples.
+# pytest on python/tests and the docstrings' examples. Among the tests, those of issue 39 run
+# child interpreters (python/tests/child.py) that fork after using the pools, limit their
+# address space (RLIMIT_AS), send themselves SIGINT during hours of work, and write a mesh's
+# arrays from another thread during builds: each bounded, none passing or failing on time.
 #
 #   bash python/ci.sh
 #

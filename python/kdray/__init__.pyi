@@ -6,10 +6,12 @@ from typing import Any, NamedTuple, Optional, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA"]
+__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS"]
 
 CONTAINS_DIRECTION: Tuple[float, float, float]
 ISA: str
+MAX_THREADS: int
+_Origin = Union[None, str, npt.ArrayLike]
 
 _Path = Union[str, "os.PathLike[str]"]
 _Floats = npt.ArrayLike
@@ -19,7 +21,7 @@ class Hits(NamedTuple):
     prim: npt.NDArray[np.int64]
     u: npt.NDArray[np.float32]
     v: npt.NDArray[np.float32]
-    points: Optional[npt.NDArray[np.float32]] = ...
+    points: Optional[npt.NDArray[Any]] = ...
     normals: Optional[npt.NDArray[np.float32]] = ...
 
 class AllHits(NamedTuple):
@@ -29,6 +31,7 @@ class AllHits(NamedTuple):
 
 class Scene:
     watertight: bool
+    origin: Optional[npt.NDArray[np.float64]]
     def __init__(
         self,
         vertices: _Floats,
@@ -36,6 +39,7 @@ class Scene:
         *,
         watertight: bool = False,
         threads: Optional[int] = None,
+        origin: _Origin = None,
         layout: str = "wide",
         leaves: str = "groups",
         quality: str = "fast",
@@ -47,13 +51,18 @@ class Scene:
         *,
         watertight: bool = False,
         threads: Optional[int] = None,
+        origin: _Origin = None,
         layout: str = "wide",
         leaves: str = "groups",
         quality: str = "fast",
     ) -> "Scene": ...
     @classmethod
     def from_bytes(
-        cls, data: Union[bytes, bytearray, memoryview], *, watertight: bool = False
+        cls,
+        data: Union[bytes, bytearray, memoryview],
+        *,
+        watertight: bool = False,
+        origin: _Origin = None,
     ) -> "Scene": ...
     def to_bytes(self) -> bytes: ...
     def save(self, path: _Path) -> None: ...

@@ -9,6 +9,7 @@ import numpy.typing as npt
 
 CONTAINS_DIRECTION: Tuple[float, float, float]
 ISA: str
+MAX_THREADS: int
 
 F32 = npt.NDArray[np.float32]
 I64 = npt.NDArray[np.int64]

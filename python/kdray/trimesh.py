@@ -35,12 +35,15 @@ class RayMeshIntersector:
     """Ray queries on a trimesh ``Trimesh`` through a kdray :class:`~kdray.Scene`.
 
     ``watertight`` and the build options (``layout``, ``leaves``, ``quality``, ``threads``) are
-    passed to the scene (:class:`kdray.Scene`).
+    passed to the scene (:class:`kdray.Scene`). The scene is built around the centre of the
+    mesh (``origin='auto'``): trimesh's float64 coordinates far from zero keep their precision
+    near the mesh (kdray traces in float32). A ray with a zero direction misses, as in trimesh.
     """
 
     def __init__(self, mesh: Any, *, watertight: bool = False, **build_options: Any) -> None:
         self.mesh = mesh
         self._options = dict(build_options, watertight=watertight)
+        self._options.setdefault("origin", "auto")
         self._scene = None
         self._key = None
 
@@ -68,15 +71,32 @@ class RayMeshIntersector:
             )
         return o, d
 
+    @staticmethod
+    def _nonzero(d: np.ndarray):
+        """``d`` with zero rows replaced by a direction the scene accepts, and the mask of the
+        rays kept (trimesh answers a miss for a zero direction; the scene refuses it)."""
+        keep = (d != 0).any(axis=1)
+        if keep.all():
+            return d, None
+        d = d.copy()
+        d[~keep] = (1.0, 0.0, 0.0)
+        return d, keep
+
     def intersects_first(self, ray_origins: Any, ray_directions: Any, **kwargs: Any) -> np.ndarray:
         """The index of the first triangle each ray hits, -1 for none: ``(n,)`` int64."""
         o, d = self._rays(ray_origins, ray_directions)
-        return self.scene.intersect(o, d).prim
+        d, keep = self._nonzero(d)
+        prim = self.scene.intersect(o, d).prim
+        if keep is not None:
+            prim[~keep] = -1
+        return prim
 
     def intersects_any(self, ray_origins: Any, ray_directions: Any, **kwargs: Any) -> np.ndarray:
         """Whether each ray hits the mesh: ``(n,)`` bool."""
         o, d = self._rays(ray_origins, ray_directions)
-        return self.scene.occluded(o, d)
+        d, keep = self._nonzero(d)
+        hit = self.scene.occluded(o, d)
+        return hit if keep is None else hit & keep
 
     def intersects_id(
         self,
@@ -90,13 +110,17 @@ class RayMeshIntersector:
         (int64), and with ``return_locations`` the points ``(h, 3)`` (float64). Every crossing
         with ``multiple_hits`` (sorted by ray, then along it), else the first hit of each ray
         that hits."""
-        o, d = self._rays(ray_origins, ray_directions)
+        o, d0 = self._rays(ray_origins, ray_directions)
+        d, keep = self._nonzero(d0)
         if multiple_hits:
             ray, t, tri = self.scene.intersect_all(o, d)
         else:
             hits = self.scene.intersect(o, d)
             ray = np.flatnonzero(hits.prim >= 0)
             t, tri = hits.t[ray], hits.prim[ray]
+        if keep is not None:
+            kept = keep[ray]
+            ray, t, tri = ray[kept], t[kept], tri[kept]
         if not return_locations:
             return tri, ray
         locations = o[ray] + t.astype(np.float64)[:, None] * d[ray]

@@ -8,6 +8,7 @@
 //! the block's memory goes back to a small pool ([`RETAIN`]) and the next call of about that
 //! size writes into pages already mapped.
 
+use crate::stop::{self, Stop};
 use numpy::ndarray::ArrayView1;
 use numpy::{Element, PyArray1};
 use pyo3::prelude::*;
@@ -66,7 +67,10 @@ impl Layout {
 impl Block {
     /// A block for `layout`: a kept one that fits (not more than twice the size), else a new one.
     /// Its bytes are uninitialized.
-    pub fn new(layout: Layout) -> Self {
+    ///
+    /// # Errors
+    /// A new block's memory cannot be allocated ([`Stop::Memory`]).
+    pub fn new(layout: Layout) -> Result<Self, Stop> {
         // One word more than needed, so that the arrays can start on a cache line whatever the
         // allocation's alignment (`malloc`: 16 bytes).
         let need = layout.bytes.div_ceil(8) + 8;
@@ -80,10 +84,17 @@ impl Block {
                 .map(|(k, _)| k);
             best.map(|k| pool.swap_remove(k))
         };
-        let mut words = kept.unwrap_or_else(|| Vec::with_capacity(need));
+        let mut words = match kept {
+            Some(w) => w,
+            None => {
+                let mut w = Vec::new();
+                stop::reserve(&mut w, need, "intersect's answers")?;
+                w
+            }
+        };
         // SAFETY: `MaybeUninit` needs no initialization, and the capacity is at least `need`.
         unsafe { words.set_len(need) };
-        Self { words }
+        Ok(Self { words })
     }
 
     /// The byte offset of the block's first cache line.

@@ -24,6 +24,7 @@
 //! reports the error as `check_values` words it.
 
 use crate::rays::{Batch, CHUNK, Columns, IDLE, MAX_PIECE, Rows, UNIT};
+use crate::run::{Cancel, cancelled};
 use core::ops::Range;
 use glam::Vec3;
 use kdray_core::simd::{RayPacket, f32x4, f32x8};
@@ -89,15 +90,18 @@ fn chunks_or_none<T>(v: Option<&mut [T]>, c: usize, len: usize) -> Vec<Option<&m
 
 /// Writes the closest hits of `batch` (lengths checked) on `scene`, in `mode`, into `out`, on
 /// the current rayon pool; false if a ray is one that [`Batch::check_values`] refuses (which
-/// then says why; `out` is then partly written).
-pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, out: Answers) -> bool {
+/// then says why; `out` is then partly written). Stops early, `out` partly written, once
+/// `cancel` is set.
+pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, out: Answers, cancel: &Cancel) -> bool {
     let n = batch.n;
     // Pieces of whole runs (so whole packets). A batch that starts in packets (a camera's) in
     // pieces of `CHUNK` rays, as `kdray trace --packet` splits its rays: many small pieces
     // balance the threads best, and packets gain nothing from longer ones. Other batches in a
     // piece per quarter of a thread's share: the stream's sort finds more coherent runs in a
     // longer piece. The answers are the same either way: only the split changes.
-    let c = if in_packets(&batch.rows(), 0..n.min(RUN), kdray_core::isa::lanes()) {
+    // A batch of at most `CHUNK` rays is traced on the calling thread, outside the package's
+    // pools: nothing may ask rayon there (it would start its global pool, which a fork breaks).
+    let c = if n <= CHUNK || in_packets(&batch.rows(), 0..n.min(RUN), kdray_core::isa::lanes()) {
         CHUNK
     } else {
         n.div_ceil(4 * rayon::current_num_threads().max(1))
@@ -126,7 +130,8 @@ pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, out: Answers) -> bool
         .collect();
     let bad = AtomicBool::new(false);
     let work = |p: Piece| {
-        if !bad.load(Ordering::Relaxed) && !trace_piece(scene, batch, mode, p) {
+        if !bad.load(Ordering::Relaxed) && !cancelled(cancel) && !trace_piece(scene, batch, mode, p)
+        {
             bad.store(true, Ordering::Relaxed);
         }
     };

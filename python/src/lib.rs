@@ -5,16 +5,22 @@
 //! arrays. The package's Python layer (`kdray/__init__.py`) checks types and shapes, converts
 //! dtypes once (float32 rays, int64 faces) and broadcasts; this module takes the arrays as they
 //! are then (read in place, C-contiguous), checks their values, and does the work with the GIL
-//! released, on rayon's pool (all cores, or a pool of `threads`).
+//! released, on the package's pools (`pool`: a thread a core, or `threads`; fork-safe), Ctrl-C
+//! checked while it runs (`run`).
 //!
-//! Every failure is a `ValueError` naming the argument and the problem; the Python layer raises
-//! the `TypeError`s.
+//! Every failure about the input is a `ValueError` naming the argument and the problem; the
+//! Python layer raises the `TypeError`s. Memory that a size in the input asks for and that
+//! cannot be had is a `MemoryError` (`stop`); Ctrl-C during a batch a `KeyboardInterrupt`.
 
 mod block;
 mod closest;
+mod crossings;
 mod mesh;
 mod owned;
+mod pool;
 mod rays;
+mod run;
+mod stop;
 
 use kdray::build::Quality;
 use kdray::flat::{self, Layout, Leaves};
@@ -24,38 +30,12 @@ use owned::{Options, Owned};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
-use rayon::ThreadPool;
 use rays::Batch;
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use stop::Stop;
 
 fn value_error(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
-}
-
-/// Runs `f` on a pool of `threads` threads (kept for the next call with as many), or on rayon's
-/// global pool (one thread a core) for `None`.
-fn on_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
-    static POOLS: Mutex<Vec<(usize, Arc<ThreadPool>)>> = Mutex::new(Vec::new());
-    let Some(n) = threads else {
-        return Ok(f());
-    };
-    let pool = {
-        let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
-        match pools.iter().find(|(k, _)| *k == n) {
-            Some((_, p)) => p.clone(),
-            None => {
-                let p = rayon::ThreadPoolBuilder::new()
-                    .num_threads(n)
-                    .build()
-                    .map_err(|e| value_error(format!("threads={n}: {e}")))?;
-                let p = Arc::new(p);
-                pools.push((n, p.clone()));
-                p
-            }
-        }
-    };
-    Ok(pool.install(f))
 }
 
 fn options(layout: &str, leaves: &str, quality: &str, threads: Option<usize>) -> PyResult<Options> {
@@ -97,7 +77,7 @@ fn slice<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
     name: &str,
 ) -> PyResult<&'a [T]> {
     a.as_slice()
-        .map_err(|_| value_error(format!("{name} is not C-contiguous")))
+        .map_err(|_| value_error(format!("{name} is not C-contiguous and aligned")))
 }
 
 /// A validated kd-tree over a triangle mesh (the package's `kdray.Scene` wraps it).
@@ -134,22 +114,23 @@ impl RayArgs<'_> {
     }
 }
 
-/// Checks `batch`'s values, then runs `f` on the pool of `threads`, without the GIL.
+/// Checks `batch`'s values, then runs `f` without the GIL: on this thread for a few rays, else
+/// on the pool of `threads`, stopped by Ctrl-C (`run`).
 fn traced<T: Send>(
     py: Python<'_>,
     threads: Option<usize>,
     batch: &Batch,
-    f: impl FnOnce() -> T + Send,
+    f: impl FnOnce(&run::Cancel) -> Result<T, Stop> + Send,
 ) -> PyResult<T> {
-    let run = || -> Result<T, String> {
+    let work = |cancel: &run::Cancel| -> Result<T, Stop> {
         batch.check_values()?;
-        Ok(f())
+        f(cancel)
     };
     if batch.n <= rays::CHUNK {
         // A few rays: on this thread, which is faster than handing them to a pool.
-        return py.detach(run).map_err(value_error);
+        return Ok(py.detach(|| work(&run::Cancel::new(false)))?);
     }
-    py.detach(|| on_pool(threads, run))?.map_err(value_error)
+    Ok(run::detached(py, threads, work)?)
 }
 
 fn mode(watertight: bool) -> Mode {
@@ -178,14 +159,13 @@ impl Tree {
         let v = slice(&vertices, "vertices")?;
         let f = faces.as_ref().map(|f| slice(f, "faces")).transpose()?;
         let owned = py.detach(|| {
-            on_pool(threads, || {
+            pool::on_pool(threads, || -> Result<Owned, Stop> {
                 let tris = mesh::triangles(v, f)?;
-                owned::build(tris, options)
-            })
+                owned::probe_build(tris.len())?;
+                Ok(owned::build(tris, options)?)
+            })?
         })?;
-        Ok(Self {
-            owned: owned.map_err(value_error)?,
-        })
+        Ok(Self { owned })
     }
 
     /// Loads a `.kdt` (validated), or a mesh file (`.ply`, `.ply.gz`, `.obj`, `.tri`) and builds it.
@@ -203,23 +183,23 @@ impl Tree {
         let is_kdt = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("kdt"));
-        let owned = py.detach(|| -> Result<Owned, String> {
+        let owned = py.detach(|| -> Result<Owned, Stop> {
             if is_kdt {
                 let words = flat::read_kdt(&path).map_err(|e| e.to_string())?;
-                Owned::from_words(&words).map_err(|e| format!("{}: {e}", path.display()))
+                Ok(Owned::from_words(&words).map_err(|e| format!("{}: {e}", path.display()))?)
             } else {
                 let geom = kdray::input::load_input(&path, &[]).map_err(|e| e.to_string())?;
                 if geom.triangles.is_empty() {
-                    return Err(format!("{}: the mesh has no triangles", path.display()));
+                    return Err(format!("{}: the mesh has no triangles", path.display()).into());
                 }
-                on_pool(threads, || owned::build_geometry(&geom, options))
-                    .map_err(|e| e.to_string())?
-                    .map_err(|e| format!("{}: {e}", path.display()))
+                owned::probe_build(geom.triangles.len())?;
+                Ok(
+                    pool::on_pool(threads, || owned::build_geometry(&geom, options))?
+                        .map_err(|e| format!("{}: {e}", path.display()))?,
+                )
             }
-        });
-        Ok(Self {
-            owned: owned.map_err(value_error)?,
-        })
+        })?;
+        Ok(Self { owned })
     }
 
     /// A tree from the words of a `.kdt` (validated): its bytes viewed as little-endian u32.
@@ -332,7 +312,7 @@ impl Tree {
             (extra(points), 4),
             (extra(normals), 4),
         ]);
-        let mut memory = block::Block::new(layout);
+        let mut memory = block::Block::new(layout)?;
         let [t, prim, u, v, p, nrm] = memory.split(layout);
         let out = closest::Answers {
             t: block::typed(t, n),
@@ -344,22 +324,21 @@ impl Tree {
         };
         // The rays are checked as they are traced; a refused one is reported as
         // `check_values` words it.
-        let run = || {
-            if closest::intersect(scene, &batch, mode(watertight), out) {
+        let work = |cancel: &run::Cancel| -> Result<(), Stop> {
+            if closest::intersect(scene, &batch, mode(watertight), out, cancel) {
                 Ok(())
             } else {
-                Err(match batch.check_values() {
+                Err(Stop::Value(match batch.check_values() {
                     Err(e) => e,
                     Ok(()) => "a ray could not be traced: please report this batch".to_string(),
-                })
+                }))
             }
         };
         if batch.n <= rays::CHUNK {
-            py.detach(run)
+            py.detach(|| work(&run::Cancel::new(false)))?;
         } else {
-            py.detach(|| on_pool(threads, run))?
+            run::detached(py, threads, work)?;
         }
-        .map_err(value_error)?;
         let memory = Bound::new(py, memory)?;
         // SAFETY: the layout is the block's, and `closest::intersect` wrote every element.
         unsafe {
@@ -385,8 +364,8 @@ impl Tree {
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let batch = rays.batch()?;
         let scene = self.owned.scene();
-        let out = traced(py, threads, &batch, || {
-            rays::occluded(scene, &batch, mode(watertight))
+        let out = traced(py, threads, &batch, |cancel| {
+            rays::occluded(scene, &batch, mode(watertight), cancel)
         })?;
         Ok(PyArray1::from_vec(py, out))
     }
@@ -401,7 +380,9 @@ impl Tree {
     ) -> PyResult<Bound<'py, PyArray1<i64>>> {
         let batch = rays.batch()?;
         let scene = self.owned.scene();
-        let out = traced(py, threads, &batch, || rays::count(scene, &batch))?;
+        let out = traced(py, threads, &batch, |cancel| {
+            crossings::count(scene, &batch, cancel)
+        })?;
         Ok(PyArray1::from_vec(py, out))
     }
 
@@ -420,7 +401,9 @@ impl Tree {
     )> {
         let batch = rays.batch()?;
         let scene = self.owned.scene();
-        let (ray, t, prim) = traced(py, threads, &batch, || rays::all(scene, &batch))?;
+        let (ray, t, prim) = traced(py, threads, &batch, |cancel| {
+            crossings::all(scene, &batch, cancel)
+        })?;
         Ok((
             PyArray1::from_vec(py, ray),
             PyArray1::from_vec(py, t),
@@ -438,20 +421,16 @@ impl Tree {
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let p = slice(&points, "points")?;
         let scene = self.owned.scene();
-        let out = py
-            .detach(|| {
-                on_pool(threads, || {
-                    if let Some(i) = p.iter().position(|x| !x.is_finite()) {
-                        return Err(format!(
-                            "points[{}] is {}: every coordinate must be finite",
-                            i / 3,
-                            mesh::row(&p[i / 3 * 3..i / 3 * 3 + 3])
-                        ));
-                    }
-                    Ok(rays::contains(scene, p))
-                })
-            })?
-            .map_err(value_error)?;
+        let out = run::detached(py, threads, |cancel| {
+            if let Some(i) = p.iter().position(|x| !x.is_finite()) {
+                return Err(Stop::Value(format!(
+                    "points[{}] is {}: every coordinate must be finite",
+                    i / 3,
+                    mesh::row(&p[i / 3 * 3..i / 3 * 3 + 3])
+                )));
+            }
+            crossings::contains(scene, p, cancel)
+        })?;
         Ok(PyArray1::from_vec(py, out))
     }
 }
@@ -460,7 +439,8 @@ impl Tree {
 #[pymodule]
 fn _kdray(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Tree>()?;
-    m.add("CONTAINS_DIRECTION", rays::CONTAINS_DIRECTION)?;
+    m.add("CONTAINS_DIRECTION", crossings::CONTAINS_DIRECTION)?;
     m.add("ISA", kdray_core::isa::name())?;
+    m.add("MAX_THREADS", pool::max_threads())?;
     Ok(())
 }

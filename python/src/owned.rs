@@ -5,6 +5,7 @@
 //! Where the words come from: a mesh built by the host library's SAH builder and serializer
 //! ([`build`]: what `kdray build` does), a `.kdt` file or its bytes ([`Owned::from_words`]).
 
+use crate::stop::{self, Stop};
 use glam::Vec3;
 use kdray::Geometry;
 use kdray::build::{self, BuildParams, Quality};
@@ -57,6 +58,19 @@ pub struct Options {
     pub leaves: Leaves,
     pub quality: Quality,
     pub parallel: bool,
+}
+
+/// Checks that a build of `triangles` triangles can have its memory (the builder's allocations
+/// are not fallible: this probes their measured peak at once, as `kdray build` does,
+/// `kdray::memory::BUILD_BYTES_PER_PRIM` a triangle).
+///
+/// # Errors
+/// [`Stop::Memory`] if it cannot.
+pub fn probe_build(triangles: usize) -> Result<(), Stop> {
+    stop::probe(
+        (triangles as u64).saturating_mul(kdray::memory::BUILD_BYTES_PER_PRIM),
+        &format!("a build of {triangles} triangles"),
+    )
 }
 
 /// Builds the SAH kd-tree over `triangles` (input order), serializes it and validates it as a

@@ -13,11 +13,12 @@
 //! Closest hits take the walk `kdray trace` is fastest with for the rays at hand (`closest`); any
 //! hits go through the core's ray stream (`kdray_core::traverse::stream`: coherent runs as
 //! packets, the rest sorted and traced as single rays), one stream per piece of the batch; every
-//! hit along a ray through the host's exact crossings (`kdray::crossings`).
+//! hit along a ray through the host's exact crossings (`crate::crossings`).
 
 use crate::mesh::{number, row};
+use crate::run::{Cancel, cancelled};
+use crate::stop::{self, Stop};
 use glam::Vec3;
-use kdray::crossings::{AllHit, all_hits};
 use kdray_core::simd::{Lanes, RayPacket, Vec3x, f32x4, f32x8};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config};
@@ -84,7 +85,7 @@ fn with_rays<R>(
 
 /// Runs `work` on each chunk of `out` of `c` items (and its index), on the pool when there is
 /// more than one.
-fn for_chunks<T: Send>(out: &mut [T], c: usize, work: impl Fn(usize, &mut [T]) + Sync) {
+pub fn for_chunks<T: Send>(out: &mut [T], c: usize, work: impl Fn(usize, &mut [T]) + Sync) {
     if out.len() <= c {
         work(0, out);
     } else {
@@ -175,13 +176,19 @@ impl Batch<'_> {
         } else {
             self.n
         };
-        let i = (0..rows.div_ceil(CHUNK))
-            .into_par_iter()
-            .find_map_first(|k| {
-                (k * CHUNK..rows.min((k + 1) * CHUNK))
-                    .position(|i| above(&i))
-                    .map(|j| k * CHUNK + j)
-            });
+        // Not through rayon for a few rays: they are checked on the calling thread, outside the
+        // package's pools (`pool`), where a parallel call would start rayon's global pool.
+        let i = if rows <= CHUNK {
+            (0..rows).position(|i| above(&i))
+        } else {
+            (0..rows.div_ceil(CHUNK))
+                .into_par_iter()
+                .find_map_first(|k| {
+                    (k * CHUNK..rows.min((k + 1) * CHUNK))
+                        .position(|i| above(&i))
+                        .map(|j| k * CHUNK + j)
+                })
+        };
         if let Some(i) = i {
             return Err(format!(
                 "ray {i}: tmin {} is above tmax {}",
@@ -306,7 +313,11 @@ impl Batch<'_> {
         }
     }
 
-    fn pieces(&self) -> usize {
+    pub fn pieces(&self) -> usize {
+        if self.n <= CHUNK {
+            // On the calling thread: no question to rayon, whose global pool it would start.
+            return CHUNK;
+        }
         self.n
             .div_ceil(4 * rayon::current_num_threads().max(1))
             .clamp(CHUNK, MAX_PIECE)
@@ -493,91 +504,27 @@ fn stream_config(mode: Mode) -> Config {
     }
 }
 
-/// Whether anything lies along each ray of `batch` (checked) in its interval.
-pub fn occluded(scene: &Scene, batch: &Batch, mode: Mode) -> Vec<bool> {
-    let mut out = vec![false; batch.n];
+/// Whether anything lies along each ray of `batch` (checked) in its interval; stops early (its
+/// answer then meaningless) once `cancel` is set.
+///
+/// # Errors
+/// The answers' memory cannot be allocated.
+pub fn occluded(
+    scene: &Scene,
+    batch: &Batch,
+    mode: Mode,
+    cancel: &Cancel,
+) -> Result<Vec<bool>, Stop> {
+    let mut out = stop::filled(batch.n, false, "occluded's answers")?;
     let c = batch.pieces();
     let config = stream_config(mode);
     for_chunks(&mut out, c, |k, out| {
+        if cancelled(cancel) {
+            return;
+        }
         with_rays(batch, k * c..k * c + out.len(), |b| {
             let _ = stream::occluded(scene, &config, &b.rays, out, &mut b.scratch);
         });
     });
-    out
-}
-
-/// Calls `each(i, hits)` with every hit of ray `i` of `batch` (checked), exact on shared edges
-/// and vertices (`kdray::crossings`, watertight), for the rays of one piece at a time.
-fn every_hit<T: Send>(
-    scene: &Scene,
-    batch: &Batch,
-    out: &mut [T],
-    each: impl Fn(usize, f64, &[AllHit]) -> T + Sync,
-) {
-    let c = batch.pieces();
-    for_chunks(out, c, |k, out| {
-        let mut hits = Vec::new();
-        for (j, o) in out.iter_mut().enumerate() {
-            let i = k * c + j;
-            let (ray, len) = batch.ray(i);
-            all_hits(scene, &ray, true, &mut hits);
-            *o = each(i, len, &hits);
-        }
-    });
-}
-
-/// The number of times each ray crosses the surface in its interval, exact on shared edges and
-/// vertices.
-pub fn count(scene: &Scene, batch: &Batch) -> Vec<i64> {
-    let mut out = vec![0i64; batch.n];
-    every_hit(scene, batch, &mut out, |_, _, hits| hits.len() as i64);
-    out
-}
-
-/// Every crossing of every ray, flattened in ray order and along each ray by `t`: the ray's
-/// index, `t` (in units of its direction) and the triangle (input order).
-pub fn all(scene: &Scene, batch: &Batch) -> (Vec<i64>, Vec<f32>, Vec<i64>) {
-    let mut per_ray: Vec<Vec<(f32, i64)>> = vec![Vec::new(); batch.n];
-    every_hit(scene, batch, &mut per_ray, |_, len, hits| {
-        hits.iter()
-            .map(|h| {
-                (
-                    (f64::from(h.t) / len) as f32,
-                    i64::from(scene.input_id(h.prim)),
-                )
-            })
-            .collect()
-    });
-    let total = per_ray.iter().map(Vec::len).sum();
-    let (mut ray, mut t, mut prim) = (
-        Vec::with_capacity(total),
-        Vec::with_capacity(total),
-        Vec::with_capacity(total),
-    );
-    for (i, hits) in per_ray.iter().enumerate() {
-        for &(ti, p) in hits {
-            ray.push(i as i64);
-            t.push(ti);
-            prim.push(p);
-        }
-    }
-    (ray, t, prim)
-}
-
-/// The direction `contains` casts its rays in.
-pub const CONTAINS_DIRECTION: [f32; 3] = [1.0, 0.0, 0.0];
-
-/// Whether each point (finite, checked) lies inside the closed surface: an odd number of exact
-/// crossings along `+x` ([`CONTAINS_DIRECTION`]). A point on the surface may be either.
-pub fn contains(scene: &Scene, points: &[f32]) -> Vec<bool> {
-    let batch = Batch {
-        origins: points,
-        directions: &CONTAINS_DIRECTION,
-        tmin: &[0.0],
-        tmax: &[f32::INFINITY],
-        n: points.len() / 3,
-    };
-    let mut out = vec![false; batch.n];
-    every_hit(scene, &batch, &mut out, |_, _, hits| hits.len() % 2 == 1);
-    out
+    Ok(out)
 }

@@ -42,9 +42,11 @@ export function loadOptions(options) {
  */
 export function buildFlags(options) {
   checkOptions(options, BUILD_OPTIONS, 'Scene.build');
-  const layout = options?.layout ?? 'wide';
-  const leaves = options?.leaves ?? 'groups';
-  const quality = options?.quality ?? 'fast';
+  // Only an absent option takes its default: null is a value, and refused.
+  const given = (key, fallback) => (options?.[key] === undefined ? fallback : options[key]);
+  const layout = given('layout', 'wide');
+  const leaves = given('leaves', 'groups');
+  const quality = given('quality', 'fast');
   if (layout !== 'wide' && layout !== 'nodes') {
     const retired = layout === 'blocked' ? " ('blocked' was retired: 'wide' replaces it)" : '';
     throw new TypeError(`kdray: options.layout must be 'wide' or 'nodes', not ${JSON.stringify(layout)}${retired}`);
@@ -116,6 +118,20 @@ export function vec3(v, name) {
   if ('x' in v) return [v.x, v.y, v.z];
   if (v.length !== 3) throw new TypeError(`kdray: ${name} must have 3 numbers, not ${v.length}`);
   return v;
+}
+
+/**
+ * Checks a ray's `near` and `far`: numbers (not null, strings or BigInts, which the module's f32
+ * arguments would turn into 0, a number or a throw), not NaN. Throws a TypeError or RangeError
+ * naming the argument.
+ */
+export function interval(near, far) {
+  for (const [name, x] of [['near', near], ['far', far]]) {
+    if (typeof x !== 'number') {
+      throw new TypeError(`kdray: ${name} must be a number, not ${describe(x)}`);
+    }
+    if (Number.isNaN(x)) throw new RangeError(`kdray: ${name} is NaN`);
+  }
 }
 
 /** Throws unless `bytes` more bytes can fit in a module's memory (`what` names them). */

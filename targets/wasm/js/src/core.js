@@ -2,7 +2,7 @@
 // wasm-bindgen). This file knows nothing about where the module's bytes come from: index.js
 // passes the inlined base64, or a user calls init() with a URL, bytes or a compiled module.
 
-import { buildFlags, loadOptions, meshArgs, vec3, checkSize } from './args.js';
+import { buildFlags, loadOptions, meshArgs, vec3, checkSize, interval } from './args.js';
 
 export { buildFlags };
 
@@ -381,6 +381,7 @@ export class Scene {
     else [ox, oy, oz] = vec3(origin, 'origin');
     if (direction?.length === 3) [dx, dy, dz] = [direction[0], direction[1], direction[2]];
     else [dx, dy, dz] = vec3(direction, 'direction');
+    if (typeof near !== 'number' || typeof far !== 'number' || near !== near || far !== far) interval(near, far);
     let r;
     try {
       r = kd.kdj_raycast(this.#held.handle, this.#watertight ? 1 : 0, ox, oy, oz, dx, dy, dz, near, far);
@@ -408,6 +409,7 @@ export class Scene {
     const kd = this.#kd();
     const o = vec3(origin, 'origin');
     const d = vec3(direction, 'direction');
+    interval(near, far);
     const r = guarded(() => kd.kdj_occluded(this.#held.handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far), 'occluded');
     if (r < 0) throw failure(kd, r, 'occluded');
     return r === 1;
@@ -484,6 +486,7 @@ export class Scene {
     const kd = this.#kd();
     const o = vec3(origin, 'origin');
     const d = vec3(direction, 'direction');
+    interval(near, far);
     const [n, at] = guarded(() => {
       const count = kd.kdj_intersect_all(this.#held.handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
       if (count < 0) throw failure(kd, count, 'intersectAll');
@@ -511,6 +514,7 @@ export class Scene {
     const kd = this.#kd();
     const o = vec3(origin, 'origin');
     const d = vec3(direction, 'direction');
+    interval(near, far);
     return guarded(() => {
       const n = kd.kdj_intersect_all(this.#held.handle, this.#watertight ? 1 : 0, o[0], o[1], o[2], d[0], d[1], d[2], near, far);
       if (n < 0) throw failure(kd, n, 'crossings');

@@ -129,3 +129,33 @@ test('buildInWorker takes the indices Scene.build takes', async () => {
   assert.deepEqual(scene.raycastMany(r), expected);
   await assert.rejects(buildInWorker(positions, indices, { leaf: 'list' }), /unknown option "leaf"/);
 });
+
+// Issue 39, item 12: null options and intervals that are not numbers were taken for defaults or
+// for 0 (`raycast(o, d, 0, null)` missed every ray: far = 0).
+test('options and intervals of the wrong type or value are refused, naming them', async () => {
+  const scene = await Scene.build(square(), squareIdx());
+  try {
+    for (const options of [{ quality: null }, { layout: null }, { leaves: null }, { watertight: null },
+      { watertight: 'false' }, { quality: 'slow' }, { layout: 1 }]) {
+      const [key] = Object.keys(options);
+      assert.throws(() => Scene.buildSync(square(), squareIdx(), options),
+        (e) => e instanceof TypeError && e.message.includes(key), JSON.stringify(options));
+    }
+    const o = [0.75, 0.25, 1];
+    const d = [0, 0, -1];
+    for (const [near, far, kind] of [[0, null, TypeError], [null, 5, TypeError], ['0', 5, TypeError],
+      [0, '5', TypeError], [0n, 5, TypeError], [0, NaN, RangeError], [NaN, 5, RangeError]]) {
+      const name = typeof near !== 'number' || Number.isNaN(near) ? 'near' : 'far';
+      for (const call of ['raycast', 'occluded', 'intersectAll', 'crossings']) {
+        assert.throws(() => scene[call](o, d, near, far),
+          (e) => e instanceof kind && e.message.includes(name), `${call}(o, d, ${String(near)}, ${String(far)})`);
+      }
+    }
+    // and the scene answers as before
+    assert.equal(scene.raycast(o, d, 0, 5).distance, 1);
+    assert.equal(scene.raycast(o, d).faceIndex, 0);
+    assert.equal(scene.crossings(o, d, 0, Infinity), 1);
+  } finally {
+    scene.dispose();
+  }
+});
