@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The Python package's checks (.ci/run calls this): rustfmt and clippy on its crate (its own
 # workspace, which the main one's lints do not see), then the wheel built by `pip install
-# ./python` — maturin, fetched by pip as the build backend — into a fresh virtual environment
-# with numpy, pytest, trimesh and rtree (trimesh's own intersector needs it) from PyPI, then
+# ./python[dask]` — maturin, fetched by pip as the build backend — into a fresh virtual
+# environment with numpy, Dask (the optional group `dask`: the recipe's test runs a two-process
+# LocalCluster), pytest, trimesh and rtree (trimesh's own intersector needs it) from PyPI, then
 # pytest on python/tests and the docstrings' examples. Among the tests, those of issue 39 run
 # child interpreters (python/tests/child.py) that fork after using the pools, limit their
 # address space (RLIMIT_AS), send themselves SIGINT during hours of work, and write a mesh's
@@ -25,13 +26,13 @@ echo "-- rustfmt, clippy (python/)"
 cargo fmt --manifest-path python/Cargo.toml --check
 cargo clippy --manifest-path python/Cargo.toml --all-targets -- -D warnings
 
-echo "-- a fresh virtual environment: pip install ./python"
+echo "-- a fresh virtual environment: pip install ./python[dask]"
 venv=$root/target/python-venv
 rm -rf "$venv"
 "$python" -m venv "$venv"
 "$venv/bin/python" -m pip install --quiet --upgrade pip
 start=$(date +%s)
-"$venv/bin/python" -m pip install --quiet ./python
+"$venv/bin/python" -m pip install --quiet "./python[dask]"
 echo "   built and installed in $(($(date +%s) - start)) s"
 "$venv/bin/python" -m pip install --quiet numpy pytest trimesh rtree
 

@@ -27,7 +27,7 @@ from typing import Any, NamedTuple, Optional, Tuple
 
 import numpy as np
 
-from . import _kdray
+from . import _kdray, _pickle
 
 __all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS"]
 
@@ -370,13 +370,21 @@ class Scene:
         watertight: bool = False,
         threads: Optional[int] = None,
         origin: Any = None,
+        mmap: bool = False,
         **build_options: str,
     ) -> "Scene":
         """Loads a ``.kdt`` (a built tree, validated) or builds one from a mesh file: ``.ply``,
         ``.ply.gz``, ``.obj``, ``.tri`` (build options as for :class:`Scene`). A ``.kdt`` is
         loaded as it was built: build options are refused for it. ``origin``: for a ``.kdt``
         saved from a scene built with one (:attr:`Scene.origin`), that origin (the file does not
-        hold it); a mesh file is read in float32, so it takes none."""
+        hold it); a mesh file is read in float32, so it takes none.
+
+        ``mmap=True`` maps a ``.kdt`` read-only instead of reading it: the processes of a host
+        that map the same file share its pages (one copy of the tree in memory, whatever the
+        number of workers). The file must then stay as it is while the scene lives (``save``
+        replaces a file rather than rewriting it, which is safe); truncating it under a mapped
+        scene is a crash, as with any memory map.
+        """
         opts = _build_options(build_options)
         threads = _threads(threads)
         _flag(watertight, "watertight")
@@ -401,6 +409,12 @@ class Scene:
                 "origin applies to a .kdt saved with one: a mesh file is read in float32 "
                 "(build from its arrays in float64 with Scene(vertices, faces, origin=...))"
             )
+        if mmap:
+            if not path.lower().endswith(".kdt"):
+                raise ValueError(
+                    f"mmap=True maps a saved tree (.kdt), not a mesh file: {path}"
+                )
+            return cls._wrap(_kdray.map_kdt(path), watertight, origin)
         tree = _kdray.Tree.load(path, opts["layout"], opts["leaves"], opts["quality"], threads)
         return cls._wrap(tree, watertight, origin)
 
@@ -423,6 +437,26 @@ class Scene:
         # once more, onto cache lines, as it is validated).
         words = np.require(np.frombuffer(data, dtype="<u4"), requirements="CA")
         return cls._wrap(_kdray.Tree.from_words(words), watertight, origin)
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        """Pickles the tree's words (out of band with protocol 5), ``watertight`` and ``origin``;
+        unpickling validates the words, never rebuilds (kdray/_pickle.py).
+
+        >>> import pickle, kdray
+        >>> scene = kdray.Scene([[0, 0, 0], [1, 0, 0], [0, 1, 0]], watertight=True)
+        >>> pickle.loads(pickle.dumps(scene, protocol=5))
+        kdray.Scene(1 triangles, 1 nodes, 512 bytes, watertight=True)
+        """
+        return _pickle.reduce(self, operator.index(protocol))
+
+    def __copy__(self) -> "Scene":
+        """A scene sharing this one's tree, which nothing changes once built (no copy), with its
+        options."""
+        return Scene._wrap(self._tree, self.watertight, self.origin)
+
+    def __deepcopy__(self, memo: Any) -> "Scene":
+        """As :meth:`__copy__`: the tree is immutable, so a deep copy shares it too."""
+        return Scene._wrap(self._tree, self.watertight, self.origin)
 
     def to_bytes(self) -> bytes:
         """The tree as the bytes of a ``.kdt`` file."""

@@ -15,8 +15,10 @@
 mod block;
 mod closest;
 mod crossings;
+mod mapped;
 mod mesh;
 mod owned;
+mod pickle;
 mod pool;
 mod rays;
 mod run;
@@ -439,6 +441,8 @@ impl Tree {
 #[pymodule]
 fn _kdray(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Tree>()?;
+    m.add_function(wrap_pyfunction!(pickle::words, m)?)?;
+    m.add_function(wrap_pyfunction!(mapped::map_kdt, m)?)?;
     m.add("CONTAINS_DIRECTION", crossings::CONTAINS_DIRECTION)?;
     m.add("ISA", kdray_core::isa::name())?;
     m.add("MAX_THREADS", pool::max_threads())?;

@@ -3,8 +3,10 @@
 //! next to them, in one self-referential cell (`self_cell`, so without `unsafe` here).
 //!
 //! Where the words come from: a mesh built by the host library's SAH builder and serializer
-//! ([`build`]: what `kdray build` does), a `.kdt` file or its bytes ([`Owned::from_words`]).
+//! ([`build`]: what `kdray build` does), a `.kdt` file or its bytes ([`Owned::from_words`]), a
+//! memory-mapped `.kdt` ([`Owned::validate`]).
 
+use crate::mapped::Words;
 use crate::stop::{self, Stop};
 use glam::Vec3;
 use kdray::Geometry;
@@ -18,7 +20,7 @@ self_cell!(
     /// The words of a tree (64-byte aligned: the wide section on whole cache lines) and the
     /// validated scene that borrows them.
     pub struct Owned {
-        owner: Aligned,
+        owner: Words,
         #[covariant]
         dependent: Scene,
     }
@@ -31,7 +33,16 @@ impl Owned {
     /// # Errors
     /// What validation finds wrong (the core's `FormatError`), or spheres.
     pub fn from_words(words: &[u32]) -> Result<Self, String> {
-        let owned = Owned::try_new(Aligned::new(words), |w| Scene::from_words(w))
+        Self::validate(Words::Copied(Aligned::new(words)))
+    }
+
+    /// [`Owned::from_words`] for words kept where they are (a mapped file's:
+    /// [`crate::mapped::map`]).
+    ///
+    /// # Errors
+    /// As [`Owned::from_words`].
+    pub fn validate(words: Words) -> Result<Self, String> {
+        let owned = Owned::try_new(words, |w| Scene::from_words(w))
             .map_err(|e| format!("not a valid kd-tree: {e}"))?;
         if owned.scene().contents() & contents::SPHERES != 0 {
             return Err(
