@@ -57,7 +57,9 @@
 //! ## Modules
 //! - [`ray`]: [`Ray`] and [`Hit`].
 //! - [`triangle`]: Möller–Trumbore (Rukin §4), barycentric interpolation, normals.
-//! - [`watertight`]: the watertight triangle test (Woop, Benthin & Wald 2013).
+//! - [`watertight`]: the watertight triangle test (Woop, Benthin & Wald 2013); [`distance`]: the
+//!   `t` of its hits, from the plane in f64; [`far`]: both triangle tests in f64 where f32
+//!   overflows.
 //! - [`sphere`]: the cancellation-free sphere test (Ray Tracing Gems ch. 7).
 //! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (Rukin §5).
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
@@ -90,6 +92,7 @@
 pub mod camera;
 pub mod color;
 pub mod description;
+pub mod distance;
 pub mod far;
 pub mod format;
 pub mod group;

@@ -16,7 +16,7 @@
 //! Differs from pbrt-v4: pbrt-v4's triangle test rejects `t` below its own error bound, so an
 //! origin just outside the error box suffices there. kdray's Möller–Trumbore and its
 //! cancellation-free sphere accept any `t > tmin` (only the watertight kernel rejects a `t` within
-//! its bound of `tmin`, [`crate::watertight::t_error`]), so the origin must also lie far enough off the
+//! its bound of `tmin`, [`crate::distance::plane_t`]), so the origin must also lie far enough off the
 //! surface that the kernel, evaluated in f32 at that origin, sees it on the right side: that
 //! distance is `margin`, derived for each primitive below with Higham's `γ(n) = n·u / (1 − n·u)`
 //! (u = 2⁻²⁴, *Accuracy and Stability of Numerical Algorithms*, §3.1; pbrt-v4 §6.8.1).

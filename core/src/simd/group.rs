@@ -100,6 +100,15 @@ pub fn intersect_group_watertight(g: &Group, ray: &Ray, shear: &Shear) -> PrimHi
         f32x4::splat(ray.tmin),
         f32x4::splat(ray.tmax),
         valid,
+        |j| {
+            crate::distance::hit_t(
+                &lane_vertices(g, j),
+                ray.origin,
+                ray.dir,
+                ray.tmin,
+                ray.tmax,
+            )
+        },
         |j| crate::far::intersect_watertight(&lane_vertices(g, j), ray, shear),
     )
 }
