@@ -308,7 +308,9 @@ pub fn trace_scalar(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
     trace_scalar_in(scene, Mode::Fast, rays, hits);
 }
 
-/// [`trace_scalar`] in `mode` (fast or watertight).
+/// [`trace_scalar`] in `mode` (fast or watertight). Never inlined, so that scripts/icount.sh
+/// can count the instructions inside it by name.
+#[inline(never)]
 pub fn trace_scalar_in(scene: &Scene, mode: Mode, rays: &[Ray], hits: &mut [Hit]) {
     for (ray, hit) in rays.iter().zip(hits) {
         *hit = scene.intersect_in(mode, ray);
@@ -322,7 +324,8 @@ pub fn trace_packets<L: Lanes>(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
     trace_packets_in::<L>(scene, Mode::Fast, rays, hits);
 }
 
-/// [`trace_packets`] in `mode` (fast or watertight).
+/// [`trace_packets`] in `mode` (fast or watertight). Never inlined, as [`trace_scalar_in`].
+#[inline(never)]
 pub fn trace_packets_in<L: Lanes>(scene: &Scene, mode: Mode, rays: &[Ray], hits: &mut [Hit]) {
     for (r, h) in rays.chunks(L::WIDTH).zip(hits.chunks_mut(L::WIDTH)) {
         let packet = RayPacket::<L>::from_rays(r);

@@ -130,6 +130,7 @@
 use self::wide::WideNode;
 use crate::group::{self, Group};
 use crate::node::{LEAF, Node};
+use crate::simd::range::SceneRange;
 use crate::sphere::Sphere;
 use crate::triangle::Triangle;
 use glam::Vec3;
@@ -239,9 +240,22 @@ pub struct Scene<'a> {
     input_ids: &'a [u32],
     groups: &'a [Group],
     wide: &'a [WideNode],
+    /// What the packet walk needs to know that its tests cannot overflow
+    /// ([`crate::simd::range`]): the box, and the smallest finite stored threshold.
+    range: SceneRange,
 }
 
 impl<'a> Scene<'a> {
+    /// Whether the packet walk may leave out the overflow check of its triangle tests for `rays`
+    /// ([`crate::simd::range::cannot_overflow`] against this scene's box and thresholds).
+    #[inline]
+    pub fn packet_in_range<L: crate::simd::lanes::Lanes>(
+        &self,
+        rays: &crate::simd::RayPacket<L>,
+    ) -> bool {
+        crate::simd::range::cannot_overflow(rays, &self.range)
+    }
+
     /// The CONTENTS bits.
     #[inline]
     pub fn contents(&self) -> u32 {

@@ -6,6 +6,7 @@ use super::{
 };
 use crate::group;
 use crate::node::Node;
+use crate::simd::range::SceneRange;
 use glam::Vec3;
 
 /// A section's place: offset word, element count, words per element, contents bit (0 = always).
@@ -213,6 +214,7 @@ impl<'a> Scene<'a> {
             input_ids: words_of(7),
             groups: words_of(8).as_chunks().0,
             wide: words_of(9).as_chunks().0,
+            range: SceneRange::new(bounds, f32::INFINITY),
         };
         let finite = |s: &[f32]| s.iter().all(|x| x.is_finite());
         let triangles_ok = scene.tris.iter().all(|t| {
@@ -232,6 +234,9 @@ impl<'a> Scene<'a> {
             return Err(FormatError::NonFiniteGeometry);
         }
         scene.check_inside_bounds()?;
+        // Thresholds are finite or `+inf` here (checked above), so the fold sees no NaN.
+        let min_threshold = scene.tris.iter().fold(f32::INFINITY, |m, t| m.min(t[9]));
+        scene.range = SceneRange::new(bounds, min_threshold);
         if let Some(i) = scene.input_ids.iter().position(|&id| id as usize >= n_tris) {
             return Err(FormatError::BadInputId { triangle: i as u32 });
         }

@@ -49,7 +49,7 @@ pub fn intersect_group(g: &Group, ray: &Ray) -> PrimHits<f32x4> {
         min_det2: thresholds(g),
     };
     let splat = |x: f32| f32x4::splat(x);
-    moller_trumbore_lanes(
+    moller_trumbore_lanes::<f32x4, true>(
         &tri,
         &Vec3x::splat(ray.origin),
         &Vec3x::splat(ray.dir),
