@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs the whole side-by-side comparison of DESIGN.md's benchmark protocol and prints, per mesh and
+# Runs the whole side-by-side comparison of the benchmark protocol (docs/BENCHMARKS.md) and prints, per mesh and
 # per camera framing (loose: the bounding sphere in a 45° field of view; tight: the mesh's projected
 # bounds fill the image), a table of kdray scalar / 4-wide / 8-wide / stream, the bvh crate, and
 # Embree 3 (rtcIntersect1/8/1M) on the same rays, one thread, median of --repeat runs, the share

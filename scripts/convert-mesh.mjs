@@ -1,5 +1,5 @@
 #!/usr/bin/env node
-// Converts one benchmark mesh into the two files kdray loads (see DESIGN.md, "Binary formats"):
+// Converts one benchmark mesh into the two files kdray loads (docs/FORMATS.md, "Binary files"):
 //
 //   OUT.ply  binary little-endian PLY: `element vertex` with float x, y, z and `element face` with
 //            `property list uchar int vertex_indices` (all faces triangles)

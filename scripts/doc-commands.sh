@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every shell command the documentation shows, in the order a reader meets them, so that the
 # docs stay true: the fenced ```sh / ```bash / ```shell blocks of README.md, then docs/*.md, then
-# targets/*/README.md (plain ``` blocks are synopses, not commands, and are not run).
+# targets/*/README.md and targets/*/*/README.md (plain ``` blocks are synopses, not commands, and
+# are not run).
 #
 #   scripts/doc-commands.sh                  # run them all, except the marked ones (below)
 #   scripts/doc-commands.sh --with minutes   # also those marked `needs: minutes` (comma-separated
@@ -16,13 +17,18 @@
 #   needs: slurm / needs: kubernetes / needs: a server   a cluster, or a command that serves
 #                       until it is stopped
 #
-# The commands run one by one, each in a `set -e` subshell (a bare assignment such as `K=...`
-# carries on to the next commands), in a scratch copy of the repository's files (tracked and
+# Each document runs in one shell, its blocks in order, as a reader pasting them one after the
+# other into one terminal opened at the repository's root: a `cd` or a variable set in one block
+# holds for the next ones (a block whose first line is `# in DIR` says where the reader stands:
+# the shell changes to DIR, relative to the root, before it). The shell stops at the first
+# command that fails (`set -e`). It runs in a scratch copy of the repository's files (tracked and
 # new, not ignored ones) with a build directory of its own, so nothing the docs write (render.png,
 # docs/*.png, part-*.exr) lands in the working tree. `cargo install --locked --path host` installs into
 # the scratch copy's `.cargo/bin`, which is first on the PATH: your ~/.cargo is not touched.
 # The copy (target/doc-commands/tree, or $KDRAY_DOC_SCRATCH/tree) is left for a look afterwards.
 # Stops at the first command that fails, naming its file and line; exit 1.
+# A skipped command is left out of its document's shell, so a command that needs what it makes
+# must be marked too.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -33,36 +39,47 @@ while [ $# -gt 0 ]; do
         --with) with=${2:?--with needs a list, e.g. minutes,big meshes}; shift 2 ;;
         --with=*) with=${1#--with=}; shift ;;
         --list) list=1; shift ;;
-        -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        -h|--help) sed -n '2,30p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "doc-commands: unknown argument '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
 
 cd "$root"
 docs=(README.md)
-for f in docs/*.md targets/*/README.md; do docs+=("$f"); done
+for f in docs/*.md targets/*/README.md targets/*/*/README.md; do [ -e "$f" ] && docs+=("$f"); done
 
-# Prints each fenced shell block's lines as `FILE<TAB>LINE<TAB>text`.
+# Prints each fenced shell block's lines as `FILE<TAB>LINE<TAB>BLOCK<TAB>text` (BLOCK: the
+# block's number in the file).
 extract() {
     awk 'BEGIN { OFS = "\t" }
+        FNR == 1 { block = 0 }
         /^```/ {
             if (state == 0) {
                 lang = substr($0, 4)
                 state = (lang == "sh" || lang == "bash" || lang == "shell") ? 1 : 2
+                block++
             } else {
                 state = 0
             }
             next
         }
-        state == 1 { print FILENAME, FNR, $0 }' "$@"
+        state == 1 { print FILENAME, FNR, block, $0 }' "$@"
 }
 
-# Groups the lines into commands: "FILE:LINE US NEED US command" records (US: the unit separator,
-# \037, which is not whitespace, so an empty NEED stays a field), NUL-separated, where NEED is
-# what the command's `needs:` mark names (empty when unmarked).
+# Groups the lines into commands: "FILE:LINE US NEED US BLOCK US DIR US command" records (US:
+# the unit separator, \037, which is not whitespace, so an empty NEED stays a field),
+# NUL-separated, where NEED is what the command's `needs:` mark names (empty when unmarked),
+# BLOCK the block's number in FILE and DIR the block's `# in DIR` line (empty without one).
 commands() {
-    local file line text pending="" start="" need
-    while IFS=$'\t' read -r file line text; do
+    local file line block text pending="" start="" need dir="" last=""
+    while IFS=$'\t' read -r file line block text; do
+        if [ "$file:$block" != "$last" ]; then
+            last="$file:$block"
+            dir=""
+            if [[ $text =~ ^#\ in\ ([^[:space:]]+) ]]; then
+                dir=${BASH_REMATCH[1]}
+            fi
+        fi
         if [ -z "$pending" ]; then
             # Comment-only and blank lines between commands are not run.
             case $text in '' | \#*) continue ;; esac
@@ -73,7 +90,7 @@ commands() {
         fi
         if bash -n <<<"$pending" 2>/dev/null && [[ $pending != *\\ ]]; then
             need=$(grep -o 'needs: [a-z ]*' <<<"$pending" | head -1 | sed 's/^needs: //; s/ *$//' || true)
-            printf '%s\037%s\037%s\0' "$start" "$need" "$pending"
+            printf '%s\037%s\037%s\037%s\037%s\0' "$start" "$need" "$block" "$dir" "$pending"
             pending=""
         fi
     done < <(extract "${docs[@]}")
@@ -97,7 +114,7 @@ wanted() {
 }
 
 if [ "$list" = 1 ]; then
-    while IFS=$'\037' read -r -d '' where need cmd; do
+    while IFS=$'\037' read -r -d '' where need _ _ cmd; do
         if wanted "$need"; then mark="run "; else mark="skip"; fi
         printf '%s %-28s %s\n' "$mark" "$where" "$(head -1 <<<"$cmd")${need:+   [needs: $need]}"
     done < <(commands)
@@ -128,27 +145,44 @@ unset CARGO_TARGET_DIR
 export CARGO_INSTALL_ROOT="$scratch/.cargo"
 export PATH="$scratch/.cargo/bin:$PATH"
 
-# Each command runs in its own `set -e` subshell, timed, so that the first failure is named; a
-# bare assignment (`K=target/native/release/kdray`) is kept for the commands after it.
-: >"$scratch/.doc-env.sh"
-ran=0 skipped=0
-while IFS=$'\037' read -r -d '' where need cmd; do
+# One script per document: its commands, each announced and timed, in one `set -e` shell that
+# starts at the root and changes directory where a block says `# in DIR`; the ERR trap names the
+# command that failed.
+shells=$scratch/.doc-shells
+mkdir -p "$shells"
+ran=0 skipped=0 n=0 docs_n=0 script="" doc="" block=""
+while IFS=$'\037' read -r -d '' where need blk dir cmd; do
+    if [ "${where%:*}" != "$doc" ]; then
+        doc=${where%:*}
+        block=""
+        docs_n=$((docs_n + 1))
+        script=$shells/doc-$(printf '%03d' "$docs_n").sh
+        printf 'set -e\ncd %q\ntrap %q ERR\n' "$scratch" \
+            'echo "doc-commands: FAILED: $doc_at" >&2' >"$script"
+    fi
     if ! wanted "$need"; then
         skipped=$((skipped + 1))
         continue
     fi
-    printf '\n== %s\n%s\n' "$where" "$cmd"
-    start=$(date +%s)
-    printf '%s\n' "$cmd" >"$scratch/.doc-command.sh"
-    if ! (set -e && cd "$scratch" && . "$scratch/.doc-env.sh" && . "$scratch/.doc-command.sh") </dev/null; then
-        echo "doc-commands: FAILED: $where: $(head -1 <<<"$cmd")" >&2
-        exit 1
+    if [ "$blk" != "$block" ]; then
+        block=$blk
+        [ -n "$dir" ] && printf 'cd %q\n' "$scratch/$dir" >>"$script"
     fi
-    if [[ $cmd =~ ^[A-Za-z_][A-Za-z0-9_]*=[^[:space:]]*([[:space:]]+#.*)?$ ]]; then
-        printf '%s\n' "$cmd" >>"$scratch/.doc-env.sh"
-    fi
-    echo "-- ok, $(($(date +%s) - start)) s"
+    n=$((n + 1))
+    printf '%s\n' "$cmd" >"$shells/$n.txt"
+    {
+        printf 'doc_at=%q; printf "\\n== %%s\\n" "$doc_at"; cat %q; doc_t=$(date +%%s)\n' \
+            "$where" "$shells/$n.txt"
+        printf '%s\n' "$cmd"
+        printf 'echo "-- ok, $(($(date +%%s) - doc_t)) s"\n'
+    } >>"$script"
     ran=$((ran + 1))
 done < <(commands)
+for script in "$shells"/doc-*.sh; do
+    [ -e "$script" ] || continue
+    if ! bash "$script" </dev/null; then
+        exit 1
+    fi
+done
 echo
 echo "doc-commands: $ran commands ran as written; $skipped skipped for what they need (--list shows them)"

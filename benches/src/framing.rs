@@ -1,4 +1,4 @@
-//! The benchmark protocol's two camera framings (DESIGN.md, "Benchmark protocol").
+//! The benchmark protocol's two camera framings (docs/BENCHMARKS.md, "Protocol").
 //!
 //! - [`Framing::Loose`]: [`kdray::rays::framing_camera`], a 45° pinhole on the scene's +z side
 //!   whose field of view holds the bounding sphere. On a long, thin mesh most of its rays miss

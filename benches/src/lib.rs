@@ -5,7 +5,7 @@
 //! build call that can be timed on its own, and traces `&[kdray_core::Ray]` into closest hits,
 //! `kdray_core::Hit` per ray ([`Hit::MISS`](kdray_core::Hit::MISS) for a miss; `u`, `v` with
 //! `p = v0 + u·(v1 − v0) + v·(v2 − v0)`), so that the same rays can be fed to every tracer and the
-//! answers compared ray by ray (DESIGN.md, "Benchmark protocol"). Each `trace*` has a `*_into`
+//! answers compared ray by ray (docs/BENCHMARKS.md, "Protocol"). Each `trace*` has a `*_into`
 //! twin that writes into a caller's buffer, for timed loops that should not allocate.
 //!
 //! - [`peer_bvh::BvhPeer`]: the `bvh` crate (always available).

@@ -1,4 +1,4 @@
-//! The benchmark protocol's workload (DESIGN.md, "Benchmark protocol"), shared by the criterion
+//! The benchmark protocol's workload (docs/BENCHMARKS.md, "Protocol"), shared by the criterion
 //! benches and the `compare` table: a mesh, kdray's tree over it built single-threaded, and for
 //! each camera framing ([`Framing`]) its primary rays in 2×4 tiles and one cosine-weighted
 //! diffuse bounce per primary hit.

@@ -1,14 +1,14 @@
 //! The triangle kernels again in f64, for the rays whose f32 products overflow.
 //!
-//! Möller–Trumbore's `t = e2·(s × e1) / det` and the watertight kernel's `T = Σ e·z` are products
-//! of three lengths: `|e1|·|e2|·|o − v0|`. Past f32's `3.4·10³⁸` (a triangle of edges `6·10¹²`
-//! seen from `10¹³`, one of `10⁹` seen from `10²⁰`) they overflow, `t` is `inf` or NaN, and the
-//! ray missed a triangle it passes through (issue 29). The f32 kernels call these functions for
-//! exactly those tests — a test whose `t` (or, for Möller–Trumbore, `α`, `β` or `t`) is not
-//! finite although the ray is not parallel to the triangle and its interval is not empty — so
-//! the common path pays one finiteness test and nothing else. The packet and group kernels call
-//! them lane by lane, with each lane's own ray and triangle, so a lane still returns exactly what
-//! the scalar kernel returns.
+//! Möller–Trumbore's `t = e2·(s × e1) / det` is a product of three lengths, `|e1|·|e2|·|o − v0|`,
+//! and the watertight kernel's edge functions products of two. Past f32's `3.4·10³⁸` (a triangle
+//! of edges `6·10¹²` seen from `10¹³`, one of `10⁹` seen from `10²⁰`) they overflow, and the ray
+//! missed a triangle it passes through (issue 29). The f32 kernels call these functions for
+//! exactly those tests — Möller–Trumbore: `α`, `β` or `t` not finite although the ray is not
+//! parallel to the triangle; watertight: `det` or `1/det` not finite although `det ≠ 0`; both
+//! only for a non-empty interval — so the common path pays one finiteness test and nothing else.
+//! The packet and group kernels call them lane by lane, with each lane's own ray and triangle,
+//! so a lane still returns exactly what the scalar kernel returns.
 //!
 //! In f64 every product of f32 inputs stays finite (`(6.8·10³⁸)³ ≈ 3·10¹¹⁶`), and every f32
 //! value is exact, so these compute the same formulas with far smaller rounding; the result is
@@ -24,9 +24,10 @@
 //! overflows f32 (`|v − o|` past `3.4·10³⁸`, both near f32's largest values with opposite signs)
 //! is everything computed in f64 from the inputs, without that guarantee.
 
+use crate::distance::hit_t;
 use crate::ray::Ray;
 use crate::triangle::Triangle;
-use crate::watertight::{Shear, reaches_back, t_error};
+use crate::watertight::Shear;
 use glam::Vec3;
 
 /// Möller–Trumbore ([`Triangle::intersect_prepared`]) in f64, for a ray already known not to be
@@ -55,10 +56,9 @@ pub fn intersect_moller_trumbore(tri: &Triangle, ray: &Ray) -> Option<(f32, f32,
 }
 
 /// The watertight test ([`crate::watertight::intersect_sheared`]) in f64, with the ray's f32
-/// [`Shear`]: the hit `(t, u, v)` rounded to f32, with the f32 kernel's rules (the edge
-/// functions' signs, `det ≠ 0`, `tmin < t < tmax` on the rounded `t`, and the `t` error bound
-/// where the triangle reaches back to `tmin`), or `None`. The caller has checked that the
-/// triangle is not degenerate.
+/// [`Shear`]: the edge functions' signs and `det ≠ 0` in f64, then the hit's `t` as the f32
+/// kernel takes it ([`crate::distance::hit_t`], already f64) and the barycentrics rounded to f32,
+/// or `None`. The caller has checked that the triangle is not degenerate.
 #[cold]
 #[inline(never)]
 pub fn intersect_watertight(
@@ -67,42 +67,29 @@ pub fn intersect_watertight(
     shear: &Shear,
 ) -> Option<(f32, f32, f32)> {
     let [kx, ky, kz] = shear.k;
-    let [sx, sy, sz] = shear.s;
+    let [sx, sy, _] = shear.s;
     // The f32 kernel's sheared coordinates, bit for bit (module doc).
     let rel32 = verts.map(|v| v - ray.origin);
     let sheared32 = rel32.map(|a| [a[kx] - sx * a[kz], a[ky] - sy * a[kz]]);
-    let (rel, sheared) = if sheared32.iter().flatten().all(|x| x.is_finite()) {
-        // Finite sheared coordinates imply finite `rel` (an infinite `A[kz]` makes `x` infinite
-        // or NaN).
-        (
-            rel32.map(|a| [a[kx], a[ky], a[kz]].map(f64::from)),
-            sheared32.map(|p| p.map(f64::from)),
-        )
+    let sheared = if sheared32.iter().flatten().all(|x| x.is_finite()) {
+        sheared32.map(|p| p.map(f64::from))
     } else {
         let (sx, sy) = (f64::from(sx), f64::from(sy));
         let o = f64s(ray.origin);
-        let rel = verts.map(|v| {
+        verts.map(|v| {
             let v = f64s(v);
-            [v[kx] - o[kx], v[ky] - o[ky], v[kz] - o[kz]]
-        });
-        (rel, rel.map(|a| [a[0] - sx * a[2], a[1] - sy * a[2]]))
+            let a = [v[kx] - o[kx], v[ky] - o[ky], v[kz] - o[kz]];
+            [a[0] - sx * a[2], a[1] - sy * a[2]]
+        })
     };
     let [[ax, ay], [bx, by], [cx, cy]] = sheared;
-    let e = [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax];
-    let [u, v, w] = e;
+    let [u, v, w] = [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax];
     let inside = (u >= 0.0 && v >= 0.0 && w >= 0.0) || (u <= 0.0 && v <= 0.0 && w <= 0.0);
     let det = u + v + w;
-    let sz = f64::from(sz);
-    let z = rel.map(|a| sz * a[2]);
-    let t64 = (u * z[0] + v * z[1] + w * z[2]) / det;
-    let t = t64 as f32;
-    if !(inside & (det.abs() > 0.0) & (t > ray.tmin) & (t < ray.tmax)) {
+    if !(inside & (det.abs() > 0.0)) {
         return None;
     }
-    let tmin = f64::from(ray.tmin);
-    if reaches_back(z, tmin) && !(t64 - t_error(rel, sheared, z, e, 1.0 / det) > tmin) {
-        return None;
-    }
+    let t = hit_t(verts, ray.origin, ray.dir, ray.tmin, ray.tmax)?;
     Some((t, (v / det) as f32, (w / det) as f32))
 }
 

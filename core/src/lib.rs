@@ -27,6 +27,10 @@
 //! let hit: Hit = scene.intersect(&ray);
 //! assert!(hit.is_hit());
 //! assert!((hit.t - 2.0).abs() < 1e-6);
+//! // `hit.prim` numbers triangles in the scene's storage order (the leaves' order, which
+//! // `scene.triangle(hit.prim)` and every accessor take); the mesh's own index is `input_id`:
+//! let top_face = scene.input_id(hit.prim);
+//! assert!(top_face < 12);
 //! // A miss is `Hit::MISS`: t = inf, prim = 0xFFFFFFFF.
 //! assert!(!scene.intersect(&Ray::new(Vec3::new(3.0, 3.0, 3.0), Vec3::X)).is_hit());
 //! // Any hit (shadow rays): is anything within t < 1.5?
@@ -53,17 +57,20 @@
 //! ## Modules
 //! - [`ray`]: [`Ray`] and [`Hit`].
 //! - [`triangle`]: Möller–Trumbore (Rukin §4), barycentric interpolation, normals.
-//! - [`watertight`]: the watertight triangle test (Woop, Benthin & Wald 2013).
+//! - [`watertight`]: the watertight triangle test (Woop, Benthin & Wald 2013); [`distance`]: the
+//!   `t` of its hits, from the plane in f64; [`far`]: both triangle tests in f64 where f32
+//!   overflows.
 //! - [`sphere`]: the cancellation-free sphere test (Ray Tracing Gems ch. 7).
 //! - [`optics`]: reflection, refraction, Schlick and exact Fresnel (Rukin §5).
 //! - [`sampling`]: hemisphere samplers and an orthonormal basis (Duff et al. 2017).
 //! - [`camera`]: pinhole, Rukin's fisheye and parallel cameras, its thick lens and lens array.
-//! - [`format`], [`node`]: the flat scene format and its validation.
+//! - [`format`], [`node`]: the flat scene format and its validation, the wide section's
+//!   encoding included ([`format::wide`]).
 //! - [`traverse`]: every walk of the tree, one module each, and what they share (its module doc
 //!   says which to use when): [`traverse::single`], one ray's closest or any hit;
 //!   [`traverse::steps`], that walk as resumable steps over an explicit state;
-//!   [`traverse::packet`], 4- and 8-wide packets; [`traverse::wide`], the tree collapsed into
-//!   eight-wide nodes with tight boxes and their single-ray walk; [`traverse::stream`], ray
+//!   [`traverse::packet`], 4- and 8-wide packets; [`traverse::wide`], the single-ray walk over
+//!   the tree collapsed into eight-wide nodes with tight boxes; [`traverse::stream`], ray
 //!   streams — many rays in one call, sorted into packets and single rays, answers in input
 //!   order.
 //! - [`render`]: the render kernel, a path tracer writing into a caller's buffer.
@@ -85,6 +92,7 @@
 pub mod camera;
 pub mod color;
 pub mod description;
+pub mod distance;
 pub mod far;
 pub mod format;
 pub mod group;

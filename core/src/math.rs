@@ -2,11 +2,18 @@
 //!
 //! `core` has no `f32::sqrt` or `f32::sin`: those live in `std` and a host `cargo test` would hide
 //! their absence. Everything goes through `libm` here so the thumbv7em and wasm32 builds use exactly
-//! the code the host tests exercise (the pattern of glam's `src/f32/math.rs`).
+//! the code the host tests exercise (the pattern of glam's `src/f32/math.rs`). Beside them, the
+//! rounding-error constants the kernels and the walks share ([`gamma`]).
 
 #[inline]
 pub fn sqrt(x: f32) -> f32 {
     libm::sqrtf(x)
+}
+
+/// The square root in f64 (the packets' overflow bound, [`crate::simd::range`]).
+#[inline]
+pub fn sqrt_f64(x: f64) -> f64 {
+    libm::sqrt(x)
 }
 
 #[inline]
@@ -48,4 +55,15 @@ pub fn radians(deg: f32) -> f32 {
 #[inline]
 pub fn round(x: f32) -> f32 {
     libm::roundf(x)
+}
+
+/// The unit roundoff of f32, `u = 2⁻²⁴`.
+pub const UNIT_ROUNDOFF: f32 = f32::EPSILON * 0.5;
+
+/// Higham's `γ(n) = n·u / (1 − n·u)`: `n` successive roundings multiply a value by at most
+/// `1 ± γ(n)`.
+#[inline]
+pub const fn gamma(n: u32) -> f32 {
+    let nu = n as f32 * UNIT_ROUNDOFF;
+    nu / (1.0 - nu)
 }

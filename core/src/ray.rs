@@ -5,8 +5,8 @@ use glam::Vec3;
 
 /// A ray `o + t·d` restricted to the open interval `tmin < t < tmax`.
 ///
-/// `dir` must be normalized (DESIGN.md's rays file says so, and `kdray trace` refuses a ray file
-/// whose finite directions are not, within 1e-3). The kernels then report `t` as a distance. An
+/// `dir` must be normalized (docs/FORMATS.md's rays file says so, and `kdray trace` refuses a
+/// ray file whose finite directions are not, within 1e-3). The kernels then report `t` as a distance. An
 /// unnormalized direction breaks nothing in memory or time, and `t` is then in units of `|dir|`,
 /// but the triangle kernels' parallel test compares `det²` with a threshold set for unit
 /// directions: a direction shorter than about 2e-7 counts every triangle as parallel and misses.
@@ -63,8 +63,15 @@ impl Ray {
 /// The closest intersection found along a ray.
 ///
 /// `u`, `v` are the barycentric coordinates of a triangle hit, `p = v0 + u·(v1 − v0) + v·(v2 − v0)`;
-/// for a sphere they are 0. `prim` is the primitive's index in input order (triangles first, then
-/// spheres).
+/// for a sphere they are 0.
+///
+/// `prim` is the primitive's id in the scene's **storage order** (triangles first, then spheres):
+/// the id every accessor of [`Scene`](crate::Scene) takes (`triangle`, `material`, …). The
+/// builder stores triangles in the order its leaves reach them, so this is not the mesh's
+/// order: [`Scene::input_id`](crate::Scene::input_id)`(hit.prim)` is the triangle's index in
+/// the builder's input (the mesh's triangle order), what the hits file, the Python and the
+/// JavaScript packages report. The two agree where
+/// [`Scene::reorders_triangles`](crate::Scene::reorders_triangles) is false (and for spheres).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,

@@ -16,28 +16,17 @@
 //! Differs from pbrt-v4: pbrt-v4's triangle test rejects `t` below its own error bound, so an
 //! origin just outside the error box suffices there. kdray's Möller–Trumbore and its
 //! cancellation-free sphere accept any `t > tmin` (only the watertight kernel rejects a `t` within
-//! its bound of `tmin`, [`crate::watertight::t_error`]), so the origin must also lie far enough off the
+//! its bound of `tmin`, [`crate::distance::plane_t`]), so the origin must also lie far enough off the
 //! surface that the kernel, evaluated in f32 at that origin, sees it on the right side: that
 //! distance is `margin`, derived for each primitive below with Higham's `γ(n) = n·u / (1 − n·u)`
 //! (u = 2⁻²⁴, *Accuracy and Stability of Numerical Algorithms*, §3.1; pbrt-v4 §6.8.1).
 
 use crate::format::Scene;
-use crate::math;
+use crate::math::{self, gamma};
 use crate::ray::{Hit, Ray};
 use crate::sphere::Sphere;
 use crate::triangle::Triangle;
 use glam::Vec3;
-
-/// The unit roundoff of f32, `u = 2⁻²⁴`.
-const UNIT_ROUNDOFF: f32 = f32::EPSILON * 0.5;
-
-/// Higham's `γ(n) = n·u / (1 − n·u)`: `n` successive roundings multiply a value by at most
-/// `1 ± γ(n)`.
-#[inline]
-pub const fn gamma(n: u32) -> f32 {
-    let nu = n as f32 * UNIT_ROUNDOFF;
-    nu / (1.0 - nu)
-}
 
 /// A point on a primitive's surface as computed in f32, with what it takes to leave from it.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,7 +5,8 @@
 //!   large triangles each or fans of long, skinny ones. Both are closed: every edge is shared by
 //!   exactly two triangles, which hold bit-identical copies of its two vertices.
 //! - [`Mesh::transformed`]: each vertex moved once (`v·scale + offset` in f32), so shared vertices
-//!   stay bit-identical; at 1e7 the unit mesh snaps to a lattice of spacing 1.
+//!   stay bit-identical; at 1e7 the unit mesh snaps to a lattice of spacing 1. [`Mesh::mapped`]
+//!   the same for any map (stretches by 10⁶ along one axis, random affine maps).
 //! - [`Mesh::seam_rays`]: from a point inside, a ray to every vertex and to 4 points on every edge
 //!   (33,282 rays for the icosphere, the count). With [`Aim::Exact`] the direction is
 //!   `target − origin` times a power of two, exact in f32, so the ray passes exactly through the
@@ -88,6 +89,16 @@ impl Mesh {
             vertices: self.vertices.iter().map(|&v| v * scale + offset).collect(),
             faces: self.faces.clone(),
             centre: self.centre * scale + offset,
+        }
+    }
+
+    /// Each vertex (and the centre) mapped once by `f` (an affine stretch, say): shared vertices
+    /// stay bit-identical, so a closed mesh stays closed.
+    pub fn mapped(&self, f: impl Fn(Vec3) -> Vec3) -> Mesh {
+        Mesh {
+            vertices: self.vertices.iter().map(|&v| f(v)).collect(),
+            faces: self.faces.clone(),
+            centre: f(self.centre),
         }
     }
 

@@ -13,7 +13,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// How the tree is stored: the node section alone, or also collapsed into wide nodes
-/// (`kdray_core::traverse::wide`), which the single-ray queries then walk. (Format 7 to 11's
+/// (`kdray_core::format::wide`), which the single-ray queries then walk. (Format 7 to 11's
 /// cache-line blocks, `Blocked`, were retired in format 12: the wide nodes walk single rays
 /// faster; docs/BENCHMARKS.md, "Retired: blocks and interleaved walks".)
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
@@ -24,7 +24,7 @@ pub enum Layout {
     #[default]
     Nodes,
     /// The nodes and a wide section: eight children a node, each with a tight box
-    /// (`kdray_core::traverse::wide`), which the single-ray queries then walk.
+    /// (`kdray_core::format::wide`), which the single-ray queries then walk.
     Wide,
 }
 

@@ -10,8 +10,8 @@
 //! a microcontroller or in WebAssembly:
 //!
 //! ```
-//! use glam::Vec3;
 //! use kdray::Geometry;
+//! use kdray::glam::Vec3;
 //! use kdray::build::{BuildParams, build};
 //! use kdray_core::{Ray, Scene};
 //!
@@ -26,12 +26,21 @@
 //!
 //! let scene = Scene::from_words(&words).unwrap();
 //! let hit = scene.intersect(&Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z));
-//! assert_eq!(hit.prim, 0); // the triangle
+//! // `hit.prim` is the id in the scene's storage order (the leaves' order, which every accessor
+//! // takes); `input_id` maps it to the index in `geom` (here both are 0, the only triangle).
+//! assert_eq!(scene.input_id(hit.prim), 0); // the triangle
 //! assert!((hit.t - 1.0).abs() < 1e-6);
 //! let hit = scene.intersect(&Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::NEG_Z));
-//! assert_eq!(hit.prim, 1); // the sphere: triangles are numbered first, then spheres
+//! // The sphere: triangles are numbered first, then spheres.
+//! assert_eq!(scene.input_id(hit.prim), 1);
 //! assert!((hit.t - 1.5).abs() < 1e-6);
 //! ```
+//!
+//! With many triangles the two orders differ: the serializer stores triangles in the order the
+//! leaves reach them, so that neighbours share cache lines. `scene.triangle(hit.prim)` is the hit
+//! triangle; `scene.input_id(hit.prim)` its index in `geom.triangles`, what `kdray trace`'s hits
+//! file, `kdray::rays::to_input_ids`, the Python package's `prim` and the npm package's
+//! `faceIndex` report.
 //!
 //! Scene files (`docs/SCENE.md`) load with [`scene::load_scene`] (camera, materials, geometry);
 //! meshes with [`input::load_input`] (PLY, OBJ, `.tri`); [`progressive`] renders on all cores.
@@ -42,6 +51,28 @@
 //! nothing is compiled again; without it cargo unifies the whole workspace's features, the
 //! benches' included, and rebuilds the dependency tree.) The
 //! command line: `kdray --help`.
+//!
+//! ## As a library: features
+//! The default feature, `cli`, brings the command line and what only it uses: clap, indicatif,
+//! png, exr, plotters and rayon, and the modules [`accuracy`], [`converge`], [`cpu`],
+//! [`image`], [`plot`] and [`progressive`]. A program that loads, builds and traces needs none
+//! of it:
+//! ```toml
+//! [dependencies]
+//! kdray = { version = "0.1", default-features = false, features = ["parallel"] }
+//! kdray-core = "0.1"
+//! ```
+//! `parallel` keeps the multithreaded build (rayon; [`build::BuildParams::parallel`]); leave it
+//! out too for a single-threaded build or for `wasm32-unknown-unknown` (the npm package's
+//! module). Without `cli` the crate compiles about half as long and pulls in none of the command
+//! line's dependencies.
+//!
+//! ## glam
+//! Vectors in this API ([`Geometry`]'s triangles, cameras, rays) are [`glam`]'s (0.34); the
+//! crate re-exports it as `kdray::glam`, so a program need not name a matching version itself:
+//! `use kdray::glam::Vec3;`.
+
+pub use glam;
 
 pub mod error;
 pub mod files;

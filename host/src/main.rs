@@ -1,5 +1,5 @@
-//! The `kdray` command line. The contract (subcommands, flags, output line, exit codes) is fixed by
-//! DESIGN.md: input errors print `FILE[:LINE]: message` and exit 1, usage errors exit 2.
+//! The `kdray` command line. Its contract (subcommands, flags, output line, exit codes) is in
+//! docs/FORMATS.md: input errors print `FILE[:LINE]: message` and exit 1, usage errors exit 2.
 
 mod commands;
 #[cfg(test)]

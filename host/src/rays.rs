@@ -1,4 +1,4 @@
-//! Ray and hit files (DESIGN.md, "Binary formats") and the benchmark protocol's ray sets.
+//! Ray and hit files (docs/FORMATS.md, "Binary files") and the benchmark protocol's ray sets.
 //!
 //! - rays: `n × 8 f32`: `ox oy oz dx dy dz tmin tmax`, little-endian, no header;
 //! - hits: `n × (f32 t, u32 prim, f32 u, f32 v)`; a miss is `t = +inf`, `prim = 0xFFFF_FFFF`.
@@ -17,8 +17,8 @@ pub const RAY_BYTES: usize = 32;
 /// Bytes per hit record.
 pub const HIT_BYTES: usize = 16;
 
-/// The most a finite ray's direction length may differ from 1 (DESIGN.md: directions are
-/// normalized). The kernels' parallel test compares `det²` with a threshold made for unit
+/// The most a finite ray's direction length may differ from 1 (docs/FORMATS.md: directions
+/// are normalized). The kernels' parallel test compares `det²` with a threshold made for unit
 /// directions, so a direction much shorter than 1 (about 2e-7) would miss a triangle straight
 /// ahead; 1e-3 leaves room for any writer's rounding and moves that threshold by 0.2 % at most.
 pub const DIR_LENGTH_TOLERANCE: f32 = 1e-3;
@@ -308,7 +308,9 @@ pub fn trace_scalar(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
     trace_scalar_in(scene, Mode::Fast, rays, hits);
 }
 
-/// [`trace_scalar`] in `mode` (fast or watertight).
+/// [`trace_scalar`] in `mode` (fast or watertight). Never inlined, so that scripts/icount.sh
+/// can count the instructions inside it by name.
+#[inline(never)]
 pub fn trace_scalar_in(scene: &Scene, mode: Mode, rays: &[Ray], hits: &mut [Hit]) {
     for (ray, hit) in rays.iter().zip(hits) {
         *hit = scene.intersect_in(mode, ray);
@@ -322,7 +324,8 @@ pub fn trace_packets<L: Lanes>(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) {
     trace_packets_in::<L>(scene, Mode::Fast, rays, hits);
 }
 
-/// [`trace_packets`] in `mode` (fast or watertight).
+/// [`trace_packets`] in `mode` (fast or watertight). Never inlined, as [`trace_scalar_in`].
+#[inline(never)]
 pub fn trace_packets_in<L: Lanes>(scene: &Scene, mode: Mode, rays: &[Ray], hits: &mut [Hit]) {
     for (r, h) in rays.chunks(L::WIDTH).zip(hits.chunks_mut(L::WIDTH)) {
         let packet = RayPacket::<L>::from_rays(r);

@@ -1,12 +1,12 @@
-//! Collapsing the serialized kd-tree into format v10's wide nodes
-//! (`kdray_core::traverse::wide`, where the encoding is documented): each wide node takes the cut
-//! of its binary subtree three levels down (`kdray_core::traverse::wide::frontier`, which
-//! validation recomputes), and each child's box is computed bottom up: a leaf's, the union of its
+//! Collapsing the serialized kd-tree into the format's wide nodes
+//! (`kdray_core::format::wide`, where the encoding is documented): each wide node takes the greedy
+//! cut of its binary subtree (`kdray_core::format::wide::frontier`, which validation
+//! recomputes), and each child's box is computed bottom up: a leaf's, the union of its
 //! primitives' boxes clipped to its cell; a wide node's, the union of its own boxes. Wide nodes are
 //! numbered in the order a depth-first walk in slot order first enters them.
 
 use kdray_core::Scene;
-use kdray_core::traverse::wide::{
+use kdray_core::format::wide::{
     Bounds, EMPTY_BOX, LEAF_REF, REFS, WideNode, frontier, intersection, prim_box, set_slot_box,
     skeleton,
 };

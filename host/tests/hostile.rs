@@ -363,7 +363,7 @@ fn overflowing_edges_name_the_input_and_leave_no_output() {
     assert_eq!(left.len(), 1, "only the input is there: {left:?}");
 }
 
-/// Directions must be normalized (DESIGN.md's rays file): one of length 1e-7, which every packet
+/// Directions must be normalized (docs/FORMATS.md's rays file): one of length 1e-7, which every packet
 /// width used to let miss a triangle straight ahead, is refused with its index.
 #[test]
 fn trace_refuses_unnormalized_directions_by_index() {

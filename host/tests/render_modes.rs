@@ -183,6 +183,30 @@ fn exr_output_holds_linear_radiance_above_one() {
     assert!(px.iter().all(|p| *p == [2.5, 0.5, 0.125]), "{px:?}");
 }
 
+/// The summary line accounts for the run's time: loading the scene, making the tree, rendering
+/// and writing the image, which add up to the total (to within what happens between them:
+/// checking arguments and outputs).
+#[test]
+fn the_summary_line_times_add_up() {
+    let d = dir("times");
+    let out = d.join("t.png");
+    let line = ok(&["render", "-o", s(&out), "--size", "16x16", "--spp", "8"]);
+    let ms = |key: &str| -> f64 {
+        let v = line
+            .split(&format!(" {key}="))
+            .nth(1)
+            .unwrap_or_else(|| panic!("no {key} in {line}"));
+        v.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let parts = ["load_ms", "build_ms", "render_ms", "write_ms"].map(ms);
+    let (sum, total) = (parts.iter().sum::<f64>(), ms("total_ms"));
+    assert!(parts.iter().all(|&p| p >= 0.0), "{line}");
+    assert!(
+        sum <= total + 0.5 && total - sum < 100.0 + 0.1 * total,
+        "{sum} of {total}: {line}"
+    );
+}
+
 /// `--seconds` and `--noise` stop the render and the summary line says how far it got.
 #[test]
 fn seconds_and_noise_stop_the_render_and_report_it() {

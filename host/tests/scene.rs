@@ -165,8 +165,7 @@ fn the_example_in_the_docs_is_valid() {
         .expect("docs/SCENE.md has a TOML example")
         + 8;
     let len = doc[start..].find("```").unwrap();
-    let s =
-        SceneFile::from_toml_str(&doc[start..start + len], Path::new("docs/example.toml")).unwrap();
+    let s = SceneFile::from_toml_str(&doc[start..start + len], Path::new("docs/SCENE.md")).unwrap();
     assert_eq!(
         (s.meshes.len(), s.triangles.len(), s.spheres.len()),
         (1, 4, 1)

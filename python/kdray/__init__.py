@@ -20,6 +20,7 @@ as ``kdray trace`` (the Rust crates ``kdray`` and ``kdray-core``); ``count_inter
 from __future__ import annotations
 
 import errno
+import importlib.metadata as _metadata
 import math
 import operator
 import os
@@ -29,7 +30,7 @@ import numpy as np
 
 from . import _kdray, _pickle
 
-__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS"]
+__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS", "__version__"]
 
 #: The direction in which :meth:`Scene.contains` casts its rays.
 CONTAINS_DIRECTION = tuple(float(x) for x in _kdray.CONTAINS_DIRECTION)
@@ -38,6 +39,12 @@ CONTAINS_DIRECTION = tuple(float(x) for x in _kdray.CONTAINS_DIRECTION)
 #: (``'avx2+fma'``, ``'avx'``, ``'sse2'``, ...): a build from source compiles for the CPU that
 #: builds it (the repository's ``.cargo/config.toml``), a portable wheel for SSE2.
 ISA: str = _kdray.ISA
+
+try:
+    #: The installed package's version (``pip show kdray``'s).
+    __version__: str = _metadata.version("kdray")
+except _metadata.PackageNotFoundError:  # imported from a source tree, not installed
+    __version__ = "0+unknown"
 
 _BUILD_OPTIONS = {
     "layout": ("wide", "nodes"),

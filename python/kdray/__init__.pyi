@@ -1,17 +1,23 @@
 """Type stubs of :mod:`kdray` (docstrings and examples: kdray/__init__.py)."""
 
 import os
-from typing import Any, NamedTuple, Optional, Tuple, Union
+from typing import Any, Literal, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS"]
+__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS", "__version__"]
 
 CONTAINS_DIRECTION: Tuple[float, float, float]
 ISA: str
 MAX_THREADS: int
+__version__: str
 _Origin = Union[None, str, npt.ArrayLike]
+
+#: The build options' values (``kdray build --layout/--leaves/--quality``).
+Layout = Literal["wide", "nodes"]
+Leaves = Literal["groups", "list"]
+Quality = Literal["fast", "high"]
 
 _Path = Union[str, "os.PathLike[str]"]
 _Floats = npt.ArrayLike
@@ -40,9 +46,9 @@ class Scene:
         watertight: bool = False,
         threads: Optional[int] = None,
         origin: _Origin = None,
-        layout: str = "wide",
-        leaves: str = "groups",
-        quality: str = "fast",
+        layout: Layout = "wide",
+        leaves: Leaves = "groups",
+        quality: Quality = "fast",
     ) -> None: ...
     @classmethod
     def load(
@@ -53,9 +59,9 @@ class Scene:
         threads: Optional[int] = None,
         origin: _Origin = None,
         mmap: bool = False,
-        layout: str = "wide",
-        leaves: str = "groups",
-        quality: str = "fast",
+        layout: Layout = "wide",
+        leaves: Leaves = "groups",
+        quality: Quality = "fast",
     ) -> "Scene": ...
     @classmethod
     def from_bytes(

@@ -2,7 +2,7 @@
 with arrays it has checked and converted: C-contiguous float32 rays (one row, shared, or n),
 int64 faces. Not a public API."""
 
-from typing import Optional, Tuple
+from typing import Literal, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -21,14 +21,18 @@ class Tree:
     def build(
         vertices: F32,
         faces: Optional[I64],
-        layout: str,
-        leaves: str,
-        quality: str,
+        layout: Literal["wide", "nodes"],
+        leaves: Literal["groups", "list"],
+        quality: Literal["fast", "high"],
         threads: Optional[int],
     ) -> "Tree": ...
     @staticmethod
     def load(
-        path: str, layout: str, leaves: str, quality: str, threads: Optional[int]
+        path: str,
+        layout: Literal["wide", "nodes"],
+        leaves: Literal["groups", "list"],
+        quality: Literal["fast", "high"],
+        threads: Optional[int],
     ) -> "Tree": ...
     @staticmethod
     def from_words(words: npt.NDArray[np.uint32]) -> "Tree": ...

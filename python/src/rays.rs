@@ -486,10 +486,16 @@ fn traced(origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> (Ray, f64) {
         origin,
         dir: (d / len).as_vec3(),
         tmin: (f64::from(tmin) * len) as f32,
-        tmax: (f64::from(tmax) * len) as f32,
+        tmax: (f64::from(tmax).min(LARGEST_T) * len) as f32,
     };
     (ray, len)
 }
+
+/// The largest `t` a hit of a ray not of unit length may have, in lengths of its direction: f32's
+/// largest value less 2⁻²⁰ of it, so that the traced `tmax` (this times the length, rounded to
+/// f32: up by at most 2⁻²⁴) divided back by the length still rounds to a finite f32. Issue 39: a
+/// direction of length 10⁻³⁸ reported a triangle at `t = inf`.
+const LARGEST_T: f64 = f32::MAX as f64 * (1.0 - 1.0 / (1u64 << 20) as f64);
 
 fn stream_config(mode: Mode) -> Config {
     Config {

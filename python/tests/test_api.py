@@ -204,3 +204,71 @@ def test_watertight_mode_is_the_scenes(rng):
     assert same.mean() > 0.99
     np.testing.assert_allclose(a.t[same & (a.prim >= 0)], b.t[same & (a.prim >= 0)], rtol=1e-5)
     assert math.isinf(kdray.Scene(vertices, faces).intersect([9, 9, 9], [1, 0, 0]).t)
+
+
+@pytest.mark.parametrize(
+    "options", [{}, {"layout": "nodes"}, {"leaves": "list"}, {"watertight": True}]
+)
+def test_prim_is_the_faces_row_on_a_mesh_of_many_triangles(options):
+    """The tree stores triangles in its leaves' order, not the mesh's; every answer names the
+    row of ``faces``. A ray at the centre of each of an icosphere's 1,280 triangles, along its
+    inward normal, hits that triangle: ``prim`` is its row, in ``intersect``, ``raycast`` and
+    ``intersect_all``."""
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    v = np.asarray(sphere.vertices, dtype=np.float32)
+    f = np.asarray(sphere.faces)
+    assert len(f) == 1280
+    scene = kdray.Scene(v, f, **options)
+    tri = v[f].astype(np.float64)
+    centre = tri.mean(axis=1)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    origins = (centre + normal).astype(np.float32)
+    directions = (-normal).astype(np.float32)
+    rows = np.arange(len(f))
+    np.testing.assert_array_equal(scene.intersect(origins, directions).prim, rows)
+    for i in range(0, len(f), 97):
+        assert scene.raycast(origins[i], directions[i])[1] == i
+    every = scene.intersect_all(origins[::97], directions[::97])
+    for k, i in enumerate(rows[::97]):
+        mine = every.ray == k
+        assert every.prim[mine][np.argmin(every.t[mine])] == i
+
+
+def test_version_is_the_packages():
+    import pathlib
+    import re
+
+    pyproject = (pathlib.Path(__file__).parents[1] / "pyproject.toml").read_text()
+    assert kdray.__version__ == re.search(r'^version = "(.*)"', pyproject, re.M).group(1)
+
+
+def test_stubs_name_the_build_options_values():
+    """The stub types ``layout``, ``leaves`` and ``quality`` as the ``Literal`` of the values
+    the package accepts, in every signature that takes them."""
+    import ast
+    import pathlib
+
+    stub = ast.parse((pathlib.Path(kdray.__file__).parent / "__init__.pyi").read_text())
+    aliases = {
+        node.targets[0].id: node.value
+        for node in stub.body
+        if isinstance(node, ast.Assign) and isinstance(node.targets[0], ast.Name)
+    }
+
+    def literal(annotation):
+        if isinstance(annotation, ast.Name):
+            annotation = aliases[annotation.id]
+        assert isinstance(annotation, ast.Subscript) and ast.unparse(annotation.value) == "Literal"
+        return {e.value for e in ast.walk(annotation.slice) if isinstance(e, ast.Constant)}
+
+    scene = next(n for n in stub.body if isinstance(n, ast.ClassDef) and n.name == "Scene")
+    checked = 0
+    for fn in (n for n in scene.body if isinstance(n, ast.FunctionDef)):
+        for arg in fn.args.kwonlyargs:
+            if arg.arg in kdray._BUILD_OPTIONS:
+                assert literal(arg.annotation) == set(kdray._BUILD_OPTIONS[arg.arg]), (fn.name, arg.arg)
+                checked += 1
+    assert checked == 6

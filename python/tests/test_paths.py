@@ -157,3 +157,18 @@ def test_packets_read_from_broadcast_rows_and_mixed_lengths_match_single_rays(sc
 
 def test_the_build_names_its_instruction_set():
     assert kdray.ISA in {"avx2+fma", "avx2", "avx", "sse4.1", "sse2", "neon", "scalar"}
+
+
+@pytest.mark.parametrize("length", [1e-30, 1e-37, 2e-38, 1e-38, 1e-40, 1e-45])
+def test_a_hit_has_a_finite_t_whatever_the_directions_length(length):
+    # Issue 39: a direction of length 1e-38 reported triangle 0 at t = inf (and NaN points). A
+    # hit's t, in lengths of the direction, is finite; a hit that would lie past f32's range is
+    # a miss.
+    vertices = np.array([[-1, -1, 0], [3, -1, 0], [-1, 3, 0]], np.float32)
+    scene = kdray.Scene(vertices, np.array([[0, 1, 2]], np.uint32))
+    origin = np.array([0, 0, 1], np.float32)
+    hit = scene.intersect(origin, np.array([0, 0, -length], np.float32), points=True)
+    assert hit.prim < 0 or (np.isfinite(hit.t) and np.all(np.isfinite(hit.points)))
+    if length >= 1e-37:
+        assert hit.prim == 0
+        np.testing.assert_allclose(hit.t, 1 / np.float64(np.float32(length)), rtol=1e-6)

@@ -9,10 +9,13 @@
 //! - [`EDGES`]: the edge values every kernel is fed (±0, ±inf, NaN, denormals, huge, tiny).
 //! - [`strategies`]: proptest strategies for vectors, edge values and grid-snapped scenes.
 //! - [`wt_bound`]: what the watertight kernel must do on a ray and triangle, from its error bound.
+//! - [`walks`]: every walk of a scene (wide, nodes, packets of 4 and 8, the stream) over the same
+//!   rays.
 
 pub use kdray::closed;
 pub use kdray::f64ref;
 pub mod strategies;
+pub mod walks;
 pub mod wt_bound;
 
 /// Edge values for kernel inputs, in the spirit of wide's `tests/simd_float.rs`: signed zeros,

@@ -1,4 +1,4 @@
-//! The greedy cut that makes a wide node's children (`kdray_core::traverse::wide::frontier`),
+//! The greedy cut that makes a wide node's children (`kdray_core::format::wide::frontier`),
 //! checked on the trees of random scenes, node by node: the children are a cut of the subtree
 //! (every non-empty leaf below the node lies under exactly one child, and no child is an empty
 //! leaf), the cut is full (fewer than seven children only when no child can be opened), and each
@@ -8,7 +8,7 @@
 use kdray::build::{BuildParams, build};
 use kdray::flat::{Leaves, serialize_as};
 use kdray_core::Scene;
-use kdray_core::traverse::wide::{Bounds, MAX_OPEN_DEPTH, WIDTH, frontier};
+use kdray_core::format::wide::{Bounds, MAX_OPEN_DEPTH, WIDTH, frontier};
 use kdray_tests::strategies::{grid_geometry, scattered_triangles};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;

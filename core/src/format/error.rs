@@ -82,7 +82,7 @@ pub enum FormatError {
         node: u32,
     },
     /// A wide node's references, count, orders or unused slots are not the ones its cut of the
-    /// node tree gives, or it is entered out of turn ([`crate::traverse::wide`]).
+    /// node tree gives, or it is entered out of turn ([`crate::format::wide`]).
     BadWideNode {
         node: u32,
     },

@@ -88,7 +88,7 @@
 //!   and test the triangles section.
 //! - **Wide nodes** (CONTENTS bit `WIDE`, version 10; the greedy cut since 11): the same tree collapsed into nodes of up
 //!   to eight children, each with a conservative tight box and a front-to-back order per
-//!   direction octant ([`crate::traverse::wide`], where the encoding is documented). Leaves stay
+//!   direction octant ([`crate::format::wide`], where the encoding is documented). Leaves stay
 //!   in the node section (a reference names the leaf node). Validation recomputes every node's
 //!   children and orders from the node section and checks every box against its cell and its
 //!   child's contents, so the wide walk returns the closest hit as the node walk does. When
@@ -105,7 +105,7 @@
 //! index-list entries are checked once in one pass and a leaf only compares its range with where
 //! the previous leaf's ended (the tiling rule under **Indices**; a leaf's groups the same way,
 //! each group rebuilt from four triangle records and compared once); the wide section's check
-//! ([`crate::traverse::wide::validate`]) recomputes each wide node's cut once. In all about `c · W` word reads with a small constant `c` (the tests count them:
+//! ([`crate::format::wide::validate`]) recomputes each wide node's cut once. In all about `c · W` word reads with a small constant `c` (the tests count them:
 //! `tests/tests/format.rs`). Before the tiling rule, 131,072 leaves naming one 500,000-entry range
 //! (a 4 MB file) cost 6.5·10¹⁰ checks; now it is refused at its second leaf with
 //! [`FormatError::IndexOrder`]. The same rule bounds a walk: the primitives one ray tests number at
@@ -130,10 +130,11 @@
 //!   other geometry, tree or ids than the ones the writer meant. Such a file traces, in bounded
 //!   time, to hits that are wrong for the intended scene but consistent for the one stored.
 
+use self::wide::WideNode;
 use crate::group::{self, Group};
 use crate::node::{LEAF, Node};
+use crate::simd::range::SceneRange;
 use crate::sphere::Sphere;
-use crate::traverse::wide::WideNode;
 use crate::triangle::Triangle;
 use glam::Vec3;
 
@@ -198,7 +199,7 @@ pub mod contents {
     pub const RETIRED_BLOCKS: u32 = 1 << 6;
     /// Leaves hold their triangles in groups of four (the groups section, [`crate::group`]).
     pub const GROUPS: u32 = 1 << 7;
-    /// The tree is also stored as wide nodes (the wide section, [`crate::traverse::wide`]).
+    /// The tree is also stored as wide nodes (the wide section, [`crate::format::wide`]).
     pub const WIDE: u32 = 1 << 8;
     /// Every bit this version defines.
     pub const ALL: u32 =
@@ -213,12 +214,13 @@ pub mod stride {
     pub const NORMALS: usize = 9;
     pub const UVS: usize = 6;
     pub const GROUP: usize = crate::group::GROUP_WORDS;
-    pub const WIDE: usize = crate::traverse::wide::NODE_WORDS;
+    pub const WIDE: usize = super::wide::NODE_WORDS;
 }
 
 mod checksum;
 mod error;
 mod validate;
+pub mod wide;
 pub(crate) use validate::same_words;
 
 pub use checksum::{checksum, seal};
@@ -241,16 +243,29 @@ pub struct Scene<'a> {
     input_ids: &'a [u32],
     groups: &'a [Group],
     wide: &'a [WideNode],
+    /// What the packet walk needs to know that its tests cannot overflow
+    /// ([`crate::simd::range`]): the box, and the smallest finite stored threshold.
+    range: SceneRange,
 }
 
 impl<'a> Scene<'a> {
+    /// Whether the packet walk may leave out the overflow check of its triangle tests for `rays`
+    /// ([`crate::simd::range::cannot_overflow`] against this scene's box and thresholds).
+    #[inline]
+    pub fn packet_in_range<L: crate::simd::lanes::Lanes>(
+        &self,
+        rays: &crate::simd::RayPacket<L>,
+    ) -> bool {
+        crate::simd::range::cannot_overflow(rays, &self.range)
+    }
+
     /// The CONTENTS bits.
     #[inline]
     pub fn contents(&self) -> u32 {
         self.contents
     }
 
-    /// The wide section ([`crate::traverse::wide`]); empty when the file has none.
+    /// The wide section ([`crate::format::wide`]); empty when the file has none.
     #[inline(always)]
     pub fn wide_nodes(&self) -> &'a [WideNode] {
         self.wide
@@ -263,9 +278,10 @@ impl<'a> Scene<'a> {
         Self { wide: &[], ..*self }
     }
 
-    /// The input index of primitive `prim` (what a hit should report): its position in the
-    /// builder's input for a triangle stored out of input order, else `prim` itself (spheres,
-    /// [`Hit::MISS`](crate::Hit::MISS)'s id, scenes stored in input order).
+    /// The input index of primitive `prim`, a storage-order id as [`Hit::prim`](crate::Hit)
+    /// holds: its position in the builder's input (the mesh's triangle order) for a triangle
+    /// stored out of input order, else `prim` itself (spheres, [`Hit::MISS`](crate::Hit::MISS)'s
+    /// id, scenes stored in input order).
     #[inline]
     pub fn input_id(&self, prim: u32) -> u32 {
         self.input_ids.get(prim as usize).copied().unwrap_or(prim)

@@ -6,6 +6,7 @@ use super::{
 };
 use crate::group;
 use crate::node::Node;
+use crate::simd::range::SceneRange;
 use glam::Vec3;
 
 /// A section's place: offset word, element count, words per element, contents bit (0 = always).
@@ -52,6 +53,10 @@ impl<'a> Scene<'a> {
     /// *crafted* file's answers the ones of the scene it stores; the builder makes them true by
     /// construction, and the tests check that [`Self::from_words`] accepts every tree it builds
     /// (`tests/tests/built_words.rs`).
+    ///
+    /// The packet walks' overflow bound ([`crate::simd::range::SceneRange`]: the scene box and
+    /// the smallest threshold) is computed from the stored words as for validated ones; it holds
+    /// because the builder's primitives lie in its box, which the tests check with the rest.
     ///
     /// Why it is safe on words that are wrong anyway: the core has no `unsafe`, so every access is
     /// bounds-checked, and what the walks rely on to end is kept: every child index (binary and
@@ -257,10 +262,15 @@ impl<'a> Scene<'a> {
             input_ids: words_of(7),
             groups: words_of(8).as_chunks().0,
             wide: words_of(9).as_chunks().0,
+            range: SceneRange::new(bounds, f32::INFINITY),
         };
         if outside {
             scene.check_geometry(n_tris)?;
         }
+        // Thresholds are finite or `+inf` here (checked, or so written by this process's
+        // builder), so the fold sees no NaN.
+        let min_threshold = scene.tris.iter().fold(f32::INFINITY, |m, t| m.min(t[9]));
+        scene.range = SceneRange::new(bounds, min_threshold);
         if scene.nodes.is_empty() {
             return Err(FormatError::BadDepth);
         }
@@ -271,9 +281,9 @@ impl<'a> Scene<'a> {
         if contents & contents::WIDE != 0 {
             #[cfg(feature = "wide")]
             if outside {
-                crate::traverse::wide::validate::validate(&scene, scene.wide)?;
+                super::wide::validate::validate(&scene, scene.wide)?;
             } else {
-                crate::traverse::wide::validate::forward_refs(&scene, scene.wide)?;
+                super::wide::validate::forward_refs(&scene, scene.wide)?;
             }
             // Without the `wide` feature nothing walks the section: it is set aside unread (the
             // walks take the binary nodes, with the same closest hits), so the build links no

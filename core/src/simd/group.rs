@@ -49,7 +49,7 @@ pub fn intersect_group(g: &Group, ray: &Ray) -> PrimHits<f32x4> {
         min_det2: thresholds(g),
     };
     let splat = |x: f32| f32x4::splat(x);
-    moller_trumbore_lanes(
+    moller_trumbore_lanes::<f32x4, true>(
         &tri,
         &Vec3x::splat(ray.origin),
         &Vec3x::splat(ray.dir),
@@ -100,6 +100,15 @@ pub fn intersect_group_watertight(g: &Group, ray: &Ray, shear: &Shear) -> PrimHi
         f32x4::splat(ray.tmin),
         f32x4::splat(ray.tmax),
         valid,
+        |j| {
+            crate::distance::hit_t(
+                &lane_vertices(g, j),
+                ray.origin,
+                ray.dir,
+                ray.tmin,
+                ray.tmax,
+            )
+        },
         |j| crate::far::intersect_watertight(&lane_vertices(g, j), ray, shear),
     )
 }

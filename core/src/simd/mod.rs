@@ -1,4 +1,4 @@
-//! SIMD building blocks for 4- and 8-wide ray packets (DESIGN.md, "SIMD").
+//! SIMD building blocks for 4- and 8-wide ray packets (ARCHITECTURE.md, "Packets written once over a lane trait").
 //!
 //! - [`lanes`]: the [`Lanes`] trait over `wide`'s [`f32x4`] and [`f32x8`], and [`Vec3x`], a
 //!   struct-of-arrays 3-vector. Kernels are written once, generic over it.
@@ -6,6 +6,8 @@
 //! - [`kernels`]: packet Möller–Trumbore and packet sphere, each matching its scalar twin lane by
 //!   lane bit for bit, and [`record_closest`], the closest-hit update.
 //! - [`watertight`]: the packet watertight kernel, matching [`crate::watertight`] lane by lane.
+//! - [`range`]: when a packet's Möller–Trumbore tests cannot overflow f32 in a scene, so that the
+//!   packet walk leaves out the check that sends overflowing lanes to the f64 kernel.
 //! - [`group`]: one ray against a group of four triangles ([`crate::group`]), the same lane
 //!   arithmetic with the ray splat and the triangles in the lanes.
 //!
@@ -35,6 +37,7 @@ pub mod group;
 pub mod kernels;
 pub mod lanes;
 pub mod packet;
+pub mod range;
 pub mod watertight;
 
 pub use kernels::{PrimHits, intersect_sphere, intersect_triangle, record_closest};

@@ -7,14 +7,15 @@
 //! `(v − o)[kx]`. After that every operation is the scalar's in the same order, with no FMA, so a
 //! lane hits exactly when [`crate::watertight::intersect_sheared`] hits its ray, with
 //! bit-identical `t`, `u`, `v` (tested in `tests/tests/simd_kernels.rs`). The paper's f64 rerun
-//! (§3.5) is done lane by lane in scalar code, only for lanes with an edge function of exactly 0.
+//! (§3.5) is done lane by lane in scalar code, only for lanes with an edge function of exactly 0,
+//! and so is the hit's `t` ([`crate::distance::hit_t`], f64), only for lanes that pass the inside
+//! test: the same function as the scalar kernel's, so the same bits.
 
 use super::kernels::PrimHits;
 use super::lanes::{Lanes, set_lanes};
 use super::packet::RayPacket;
-use crate::spawn::gamma;
 use crate::triangle::Triangle;
-use crate::watertight::{Real, Shear, edge_functions_f64, t_error};
+use crate::watertight::{Shear, edge_functions_f64};
 use glam::Vec3;
 
 /// Each lane's shear (paper §3.1–3.2): component-picking masks for `kx` and `ky` (which of x, y;
@@ -99,10 +100,21 @@ pub fn intersect_triangle_watertight_prepared<L: Lanes>(
     }
     let rel = verts.map(|v| shear.relative(v));
     let all = L::splat(0.0).eq(L::splat(0.0));
-    watertight_lanes(rel, shear.s, rays.tmin, rays.tmax, all, |i| {
-        let ray = rays.ray(i);
-        crate::far::intersect_watertight(verts, &ray, &Shear::new(ray.dir))
-    })
+    watertight_lanes(
+        rel,
+        shear.s,
+        rays.tmin,
+        rays.tmax,
+        all,
+        |i| {
+            let ray = rays.ray(i);
+            crate::distance::hit_t(verts, ray.origin, ray.dir, ray.tmin, ray.tmax)
+        },
+        |i| {
+            let ray = rays.ray(i);
+            crate::far::intersect_watertight(verts, &ray, &Shear::new(ray.dir))
+        },
+    )
 }
 
 /// The watertight test lane by lane from each lane's vertices relative to its ray's origin,
@@ -110,9 +122,10 @@ pub fn intersect_triangle_watertight_prepared<L: Lanes>(
 /// `[Sx, Sy, Sz]`: the operations of [`crate::watertight::intersect_sheared`] after its
 /// subtraction, in its order. Lanes outside `valid` never hit and are never rerun in f64 (a
 /// group's padding lanes, [`super::group`]). Serves a packet against one triangle and one ray
-/// against a group of triangles alike. `far(i)` is the scalar f64 kernel for lane `i`
-/// ([`crate::far::intersect_watertight`] of its ray, shear and triangle), called for the lanes
-/// where the scalar kernel calls it ([`crate::watertight::overflowed`]).
+/// against a group of triangles alike. `hit_t(i)` is [`crate::distance::hit_t`] of lane `i`'s
+/// ray and triangle, called for the lanes that pass the inside test; `far(i)` the scalar f64
+/// kernel for lane `i` ([`crate::far::intersect_watertight`] of its ray, shear and triangle),
+/// called for the lanes where the scalar kernel calls it ([`crate::watertight::overflowed`]).
 #[inline(always)]
 pub(crate) fn watertight_lanes<L: Lanes>(
     rel: [[L; 3]; 3],
@@ -120,9 +133,10 @@ pub(crate) fn watertight_lanes<L: Lanes>(
     tmin: L,
     tmax: L,
     valid: L,
+    hit_t: impl Fn(usize) -> Option<f32>,
     far: impl Fn(usize) -> Option<(f32, f32, f32)>,
 ) -> PrimHits<L> {
-    let [sx, sy, sz] = s;
+    let [sx, sy, _] = s;
     let sheared = rel.map(|a| [a[0] - sx * a[2], a[1] - sy * a[2]]);
     let [[ax, ay], [bx, by], [cx, cy]] = sheared;
     let mut u = cx * by - cy * bx;
@@ -145,52 +159,30 @@ pub(crate) fn watertight_lanes<L: Lanes>(
     }
     let inside = (u.ge(zero) & v.ge(zero) & w.ge(zero)) | (u.le(zero) & v.le(zero) & w.le(zero));
     let det = u + v + w;
-    let z = rel.map(|a| sz * a[2]);
-    let big_t = u * z[0] + v * z[1] + w * z[2];
     let inv = det.recip();
-    let t = big_t * inv;
-    let mut mask = valid & inside & det.abs().gt(zero) & t.gt(tmin) & t.lt(tmax);
-    if mask.any() {
-        // `watertight::reaches_back`, then the `t` error bound where it says so.
-        let near = z[0].min(z[1]).min(z[2]);
-        let unsure = mask & !(near - near.abs() * L::splat(gamma(5))).gt(tmin);
-        if unsure.any() {
-            let dt = t_error(rel, sheared, z, [u, v, w], inv);
-            mask = mask & !(unsure & !(t - dt).gt(tmin));
+    let inf = L::splat(f32::INFINITY);
+    // `watertight::finite`.
+    let finite = det.abs().lt(inf) & inv.abs().lt(inf);
+    let candidates = (valid & inside & det.abs().gt(zero) & finite).bitmask();
+    let mut bits = 0;
+    let mut t = zero.to_array();
+    for i in set_lanes(candidates) {
+        if let Some(ti) = hit_t(i) {
+            bits |= 1 << i;
+            t.as_mut()[i] = ti;
         }
     }
     let hits = PrimHits {
-        mask,
-        t,
+        mask: L::mask_from_bits(bits),
+        t: L::from_array(t),
         u: v * inv,
         v: w * inv,
     };
     // `watertight::overflowed`, lane by lane.
-    let redo = valid & tmin.lt(tmax) & det.ne(zero) & !t.is_finite();
+    let redo = valid & tmin.lt(tmax) & det.ne(zero) & !finite;
     let redo = redo.bitmask();
     if redo != 0 {
         return hits.redo_far(redo, far);
     }
     hits
-}
-
-/// The lanes are numbers for [`t_error`]: the same operations as `f32`'s, lane by lane
-/// ([`Lanes::max`], [`Lanes::min`] are `maxNum`, `minNum` as `f32::max`, `f32::min`).
-impl<L: Lanes> Real for L {
-    #[inline(always)]
-    fn of(x: f32) -> Self {
-        L::splat(x)
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        Lanes::abs(self)
-    }
-    #[inline(always)]
-    fn max(self, rhs: Self) -> Self {
-        Lanes::max(self, rhs)
-    }
-    #[inline(always)]
-    fn min(self, rhs: Self) -> Self {
-        Lanes::min(self, rhs)
-    }
 }

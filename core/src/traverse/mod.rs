@@ -61,7 +61,7 @@ use crate::ray::Ray;
 use glam::Vec3;
 
 /// `γ₃ = 3ε / (1 − 3ε)`, with ε half an f32 ULP (PBR 3rd ed., §3.9.1).
-pub(crate) const GAMMA3: f32 = 3.0 * (f32::EPSILON * 0.5) / (1.0 - 3.0 * (f32::EPSILON * 0.5));
+pub(crate) const GAMMA3: f32 = crate::math::gamma(3);
 
 /// A compile-time choice of which primitive kinds a kernel handles, so that a triangles-only
 /// scene runs no sphere code (and firmware naming one variant links only it), and of the triangle
@@ -74,9 +74,12 @@ pub trait Contents {
     /// triangles, nor through a cell the walk skipped. Off (Möller–Trumbore, plain distances)
     /// unless wrapped in [`Watertight`]; a program that never names `Watertight` links none of it.
     const WATERTIGHT: bool = false;
-    /// The conservative walk alone ([`widen`]); it follows [`Contents::WATERTIGHT`] unless a type
-    /// sets it apart (the tests do, to count which of kernel and walk loses a ray).
-    const CONSERVATIVE: bool = Self::WATERTIGHT;
+    /// The conservative binary-node walk ([`widen`]): on in both modes since issue 39, so that
+    /// every walk enters every cell the ray touches (the wide walk's slab test is conservative in
+    /// both modes already, [`wide::walk`]) and one ray's answer does not depend on the walk that
+    /// carried it. Off only in types the tests define to count which of kernel and walk loses a
+    /// ray (docs/ROBUSTNESS.md).
+    const CONSERVATIVE: bool = true;
     /// Leaves may hold triangle groups ([`crate::group`]), which the format allows in
     /// triangles-only scenes: kernels for any other contents link no group code (and would see a
     /// grouped leaf as empty; [`crate::render::kernel_fits`] refuses such a scene), nor does a

@@ -12,7 +12,8 @@ use crate::ray::{Hit, Ray};
 
 impl Scene<'_> {
     /// The closest hit along `ray` in `(ray.tmin, ray.tmax)`, or [`Hit::MISS`], in fast mode.
-    /// Picks the kernel monomorphized for the scene's contents.
+    /// Picks the kernel monomorphized for the scene's contents. `prim` is in storage order:
+    /// [`Scene::input_id`] gives the mesh's triangle index ([`Hit`]).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Hit {
         self.intersect_in(Mode::Fast, ray)

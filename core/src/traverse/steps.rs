@@ -216,13 +216,13 @@ impl Stepper for Scene<'_> {
 
     /// One node of the front-to-back walk (the argument is in [`crate::traverse`]'s module doc).
     ///
-    /// With [`Contents::CONSERVATIVE`] (watertight mode) every split-plane distance is [`widen`]ed:
-    /// the near child's interval ends at the upper bound of the exact distance, the far child's
-    /// starts at the lower bound, and each child is entered if the bracket reaches its side. Every
-    /// interval then contains the exact one (by induction from the root box, clipped the same
-    /// way), so a cell the ray really passes through, if only at one point (a vertex on two split
-    /// planes), is never skipped. Without it, the two rounded distances of planes that the ray
-    /// crosses at one point can cross over, and the cell between them is dropped
+    /// With [`Contents::CONSERVATIVE`] (both modes since issue 39) every split-plane distance is
+    /// [`widen`]ed: the near child's interval ends at the upper bound of the exact distance, the
+    /// far child's starts at the lower bound, and each child is entered if the bracket reaches its
+    /// side. Every interval then contains the exact one (by induction from the root box, clipped
+    /// the same way), so a cell the ray really passes through, if only at one point (a vertex on
+    /// two split planes), is never skipped. Without it, the two rounded distances of planes that
+    /// the ray crosses at one point can cross over, and the cell between them is dropped
     /// (docs/ROBUSTNESS.md counts the rays this loses).
     #[inline(always)]
     fn step<C: Contents, Q: Query>(&self, s: &mut WalkState, q: &mut Q) -> Progress {
@@ -243,7 +243,7 @@ impl Stepper for Scene<'_> {
         }
         let axis = node.axis();
         let t_plane = (node.split() - s.origin[axis]) * s.inv_dir[axis];
-        // The near child ends, the far child starts, at the plane (its bracket, if watertight).
+        // The near child ends, the far child starts, at the plane (its bracket, if conservative).
         let (far_start, near_end) = if C::CONSERVATIVE {
             widen(t_plane)
         } else {

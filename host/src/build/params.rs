@@ -44,6 +44,13 @@ pub enum Quality {
     High,
     /// Binned planes on all but the smallest nodes, the exact sweep on those ([`fast`]);
     /// straddlers split by the plane alone by default ([`fast::FastParams::clip_min`]).
+    #[cfg_attr(
+        feature = "cli",
+        value(
+            help = "Binned planes on all but the smallest nodes, the exact sweep on those; \
+                      straddlers split by the plane alone by default"
+        )
+    )]
     Fast,
 }
 

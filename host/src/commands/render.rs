@@ -19,6 +19,7 @@ use kdray_core::render::{self, Bounces, Frame, Material, Settings};
 use kdray_core::traverse::Mode;
 use kdray_core::words::Fnv1a;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// What a render holds per pixel at its peak, with a margin: the film's sums (32 bytes) and
 /// sample count (4), the pass plan's counts (4) and, adaptive, the per-pixel deviations and
@@ -119,6 +120,9 @@ pub fn tile_rows(k: u32, n: u32, height: u32) -> Range<u32> {
 pub(crate) struct Prepared {
     pub file: SceneFile,
     pub words: Vec<u32>,
+    /// Reading the scene file and its meshes and assembling the geometry, in ms.
+    pub load_ms: f64,
+    /// Making the tree, in ms: the build, its serialization and validation, the lights.
     pub build_ms: f64,
     pub camera: SceneCamera,
     pub materials: Vec<Material>,
@@ -128,22 +132,29 @@ pub(crate) struct Prepared {
 impl Prepared {
     /// Loads `scene` (or the default scene), builds its tree and finds its lights.
     pub fn load(scene: Option<&Path>) -> Result<Self> {
+        let start = Instant::now();
         let file = match scene {
             Some(path) => load_scene(path)?,
             None => SceneFile::default_scene(),
         };
-        Self::from_file(file)
+        let read_ms = ms_since(start);
+        let mut prepared = Self::from_file(file)?;
+        prepared.load_ms += read_ms;
+        Ok(prepared)
     }
 
     /// Builds `file`'s tree and finds its lights.
     pub fn from_file(file: SceneFile) -> Result<Self> {
+        let start = Instant::now();
         let camera = file.camera()?;
         let geom = file.geometry()?;
+        let load_ms = ms_since(start);
+        let start = Instant::now();
         // Wide nodes, and triangle groups where the scene has no spheres: the bounce and shadow
         // rays that the stream cannot trace as packets walk them one by one (docs/BENCHMARKS.md,
         // "Wide nodes").
         let leaves = kdray::flat::Leaves::for_host(&geom);
-        let (words, build_ms, _) = build_words(
+        let (words, _, _) = build_words(
             &file.path,
             &geom,
             &leaves.build_params(),
@@ -157,7 +168,8 @@ impl Prepared {
         Ok(Self {
             file,
             words,
-            build_ms,
+            load_ms,
+            build_ms: ms_since(start),
             camera,
             materials,
             lights,
@@ -249,7 +261,13 @@ impl RenderArgs {
     }
 }
 
+/// Milliseconds since `start`.
+fn ms_since(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
+
 pub fn render(args: &RenderArgs) -> Result<()> {
+    let start = Instant::now();
     let out = args.out_path();
     let format = Format::of(&out)?;
     if args.tile.is_some() && format != Format::Exr {
@@ -303,7 +321,9 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         first_row: plan.rows.start,
         pixels: film.mean(),
     };
+    let written = Instant::now();
     image::write(&out, &band)?;
+    let write_ms = ms_since(written);
     let scene = prepared.scene()?;
     let checksum = match args.checksum {
         true => {
@@ -315,7 +335,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     };
     println!(
         "wrote {}: {}x{}{}, {} spp, {:.2} s, {:.2} Mrays/s, est. RMSE {:.4} (relative {:.4}), \
-         passes={} max_depth={} triangles={} spheres={} build_ms={:.1} threads={}{checksum}",
+         passes={} max_depth={} triangles={} spheres={} threads={} load_ms={:.1} build_ms={:.1} \
+         render_ms={:.1} write_ms={:.1} total_ms={:.1}{checksum}",
         out.display(),
         settings.width,
         settings.height,
@@ -335,8 +356,12 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         settings.max_depth,
         scene.tri_count(),
         scene.sphere_count(),
+        pool.current_num_threads(),
+        prepared.load_ms,
         prepared.build_ms,
-        pool.current_num_threads()
+        stats.seconds * 1e3,
+        write_ms,
+        ms_since(start),
     );
     Ok(())
 }

@@ -1,5 +1,5 @@
 //! Mesh loaders: PLY (ASCII or binary, optionally gzipped), Wavefront OBJ and the raw `.tri`
-//! triangle soup of DESIGN.md, each turned into a [`Geometry`] of triangles in input order.
+//! triangle soup (docs/FORMATS.md), each turned into a [`Geometry`] of triangles in input order.
 //!
 //! Every loader refuses, with an [`Error`] naming the file (and the line, for text formats where
 //! it can be known), rather than panicking: unreadable or truncated files, indices out of range,

@@ -1,4 +1,4 @@
-//! The `.tri` triangle soup of DESIGN.md: little-endian `u32 n`, then `n × 9 f32`
+//! The `.tri` triangle soup (docs/FORMATS.md): little-endian `u32 n`, then `n × 9 f32`
 //! (`v0 v1 v2` of each triangle), no header, nothing after.
 
 use glam::Vec3;

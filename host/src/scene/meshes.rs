@@ -72,7 +72,7 @@ fn loaded_size(file: &Path, path: &Path) -> core::result::Result<u64, String> {
     let meta = std::fs::metadata(file).map_err(|e| {
         let mut msg = e.to_string();
         if e.kind() == std::io::ErrorKind::NotFound && in_data_dir(path) {
-            // The benchmark meshes are not in the repository (DESIGN.md):
+            // The benchmark meshes are not in the repository:
             // scripts/fetch-meshes.sh downloads them into data/.
             msg.push_str(
                 " (the Stanford meshes are not in the repository: \

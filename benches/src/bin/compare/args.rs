@@ -1,5 +1,5 @@
 //! `compare`'s command line. Every value is checked: a bad one is a usage error (exit 2, as
-//! DESIGN.md's command-line contract has it), never a silent default.
+//! kdray's command line does, docs/FORMATS.md), never a silent default.
 
 use std::path::PathBuf;
 

@@ -110,7 +110,8 @@ impl Default for Config {
     }
 }
 
-/// Closest hits of the stream `rays` into `hits` (same length, input order).
+/// Closest hits of the stream `rays` into `hits` (same length, in the rays' order; each `prim`
+/// in storage order, as [`Scene::intersect`]'s).
 ///
 /// # Errors
 /// [`StreamError::Length`] if `hits` is not as long as `rays`; [`StreamError::Scratch`] if

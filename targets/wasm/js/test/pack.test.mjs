@@ -31,11 +31,11 @@ test('the README\'s install section, as written, in an empty folder; its example
   const app = join(dir, 'my-app');
   const tarball = join(pkg, `kdray-${version}.tgz`);
   try {
-    // As scripts/doc-commands.sh runs them: each command from the repository's folder in a
-    // subshell of its own, a bare assignment carried on to the next.
+    // As a reader pasting the blocks into one terminal runs them, and scripts/doc-commands.sh
+    // too: one shell, from the repository's folder, a `cd` holding for the commands after it.
     const commands = blocks('sh', { heading: 'Install' }).join('').split('\n').filter((l) => l && !l.startsWith('#'));
     assert.equal(commands.length, 3, `the install section's commands: ${commands}`);
-    const script = commands.map((c) => (/^\w+=\S+$/.test(c) ? c : `(${c.replaceAll('/tmp/my-app', app)}\n)`)).join('\n');
+    const script = commands.map((c) => c.replaceAll('/tmp/my-app', app)).join('\n');
     const env = { ...process.env, npm_config_offline: 'true', npm_config_audit: 'false', npm_config_fund: 'false', npm_config_loglevel: 'error' };
     execFileSync('bash', ['-euo', 'pipefail', '-c', script], { cwd: root, env, encoding: 'utf8' });
     const files = execFileSync('tar', ['-tzf', tarball], { encoding: 'utf8' }).split('\n').filter(Boolean).map((f) => f.replace(/^package\//, ''));

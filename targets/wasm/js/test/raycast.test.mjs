@@ -173,3 +173,39 @@ test('a scene answers the same after another build grows the memory', async () =
   assert.deepEqual(cast(), before);
   other.dispose();
 });
+
+// The tree stores triangles in its leaves' order, not the mesh's; every answer names the mesh's
+// triangle. A ray at the centre of each of an icosphere's 1,280 triangles, along its inward
+// normal, hits that triangle: faceIndex is its index in raycast, raycastMany and intersectAll,
+// with and without indices, in both modes and both kinds of leaves.
+test('faceIndex is the mesh\'s triangle on a mesh of many triangles', async () => {
+  const soupPositions = new Float32Array(new THREE.IcosahedronGeometry(1, 7).attributes.position.array);
+  const n = soupPositions.length / 9;
+  assert.equal(n, 1280);
+  const indexed = { positions: soupPositions, indices: Uint32Array.from({ length: 3 * n }, (_, i) => i) };
+  const many = new Float32Array(8 * n);
+  const centre = new THREE.Vector3();
+  const normal = new THREE.Vector3();
+  for (let i = 0; i < n; i++) {
+    const [a, b, c] = [0, 1, 2].map((k) => new THREE.Vector3().fromArray(soupPositions, 9 * i + 3 * k));
+    centre.copy(a).add(b).add(c).divideScalar(3);
+    normal.subVectors(b, a).cross(new THREE.Vector3().subVectors(c, a)).normalize();
+    many.set([centre.x + normal.x, centre.y + normal.y, centre.z + normal.z, -normal.x, -normal.y, -normal.z, 0, Infinity], 8 * i);
+  }
+  for (const options of [{}, { leaves: 'list' }, { watertight: true }, { layout: 'nodes' }]) {
+    for (const scene of [await Scene.build(soupPositions, options), await Scene.build(indexed.positions, indexed.indices, options)]) {
+      const hits = scene.raycastMany(many, new Float32Array(4 * n));
+      const faces = new Uint32Array(hits.buffer, hits.byteOffset, hits.length);
+      for (let i = 0; i < n; i++) {
+        assert.equal(faces[4 * i + 1], i, `${JSON.stringify(options)}: raycastMany, ray ${i}`);
+        if (i % 97 === 0) {
+          const o = many.subarray(8 * i, 8 * i + 3);
+          const d = many.subarray(8 * i + 3, 8 * i + 6);
+          assert.equal(scene.raycast(o, d)?.faceIndex, i, `${JSON.stringify(options)}: raycast, ray ${i}`);
+          assert.equal(scene.intersectAll(o, d).sort((p, q) => p.distance - q.distance)[0].faceIndex, i, `${JSON.stringify(options)}: intersectAll, ray ${i}`);
+        }
+      }
+      scene.dispose();
+    }
+  }
+});

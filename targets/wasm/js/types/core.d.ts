@@ -53,8 +53,11 @@ export interface SceneInfo {
   simd128: boolean;
 }
 
-/** Indices, 3 a triangle: typed, an Array of vertex numbers, or a three.js BufferAttribute (`geometry.index`). */
-export type Indices = Uint32Array | Uint16Array | ArrayLike<number> | { isBufferAttribute: true; array: ArrayLike<number>; count: number; itemSize: 1 };
+/**
+ * Indices, 3 a triangle: typed, an Array of vertex numbers, or a three.js BufferAttribute
+ * (`geometry.index`; its itemSize must be 1, checked at run time: three.js types it `number`).
+ */
+export type Indices = Uint32Array | Uint16Array | ArrayLike<number> | { isBufferAttribute: true; array: ArrayLike<number>; count: number; itemSize: number };
 
 /** Scene.fromBytes's options: a .kdt keeps its own layout and leaves. */
 export interface LoadOptions {
