@@ -10,12 +10,6 @@ pub fn sqrt(x: f32) -> f32 {
     libm::sqrtf(x)
 }
 
-/// The square root in f64 (the packets' overflow bound, [`crate::simd::range`]).
-#[inline]
-pub fn sqrt_f64(x: f64) -> f64 {
-    libm::sqrt(x)
-}
-
 #[inline]
 pub fn sin(x: f32) -> f32 {
     libm::sinf(x)

@@ -92,24 +92,7 @@ pub fn intersect_triangle_prepared<L: Lanes>(
     min_det2: f32,
     rays: &RayPacket<L>,
 ) -> PrimHits<L> {
-    // A degenerate (+inf) or NaN threshold fails the `det²` test in every lane: skip the triangle.
-    if !(min_det2 < f32::INFINITY) {
-        return PrimHits::none();
-    }
-    let tri_lanes = TriangleLanes {
-        v0: Vec3x::splat(tri.v0),
-        e1: Vec3x::splat(tri.e1),
-        e2: Vec3x::splat(tri.e2),
-        min_det2: L::splat(min_det2),
-    };
-    moller_trumbore_lanes::<L, true>(
-        &tri_lanes,
-        &rays.origin,
-        &rays.dir,
-        rays.tmin,
-        rays.tmax,
-        |i| crate::far::intersect_moller_trumbore(tri, &rays.ray(i)),
-    )
+    splat_triangle::<L, true>(tri, min_det2, rays)
 }
 
 /// [`intersect_triangle_prepared`] for a packet that [`super::range::cannot_overflow`] has
@@ -121,6 +104,17 @@ pub fn intersect_triangle_in_range<L: Lanes>(
     min_det2: f32,
     rays: &RayPacket<L>,
 ) -> PrimHits<L> {
+    splat_triangle::<L, false>(tri, min_det2, rays)
+}
+
+/// One triangle in every lane against the packet, with or without the overflow check.
+#[inline(always)]
+fn splat_triangle<L: Lanes, const CHECKED: bool>(
+    tri: &Triangle,
+    min_det2: f32,
+    rays: &RayPacket<L>,
+) -> PrimHits<L> {
+    // A degenerate (+inf) or NaN threshold fails the `det²` test in every lane: skip the triangle.
     if !(min_det2 < f32::INFINITY) {
         return PrimHits::none();
     }
@@ -130,13 +124,13 @@ pub fn intersect_triangle_in_range<L: Lanes>(
         e2: Vec3x::splat(tri.e2),
         min_det2: L::splat(min_det2),
     };
-    moller_trumbore_lanes::<L, false>(
+    moller_trumbore_lanes::<L, CHECKED>(
         &tri_lanes,
         &rays.origin,
         &rays.dir,
         rays.tmin,
         rays.tmax,
-        |_| None,
+        |i| crate::far::intersect_moller_trumbore(tri, &rays.ray(i)),
     )
 }
 

@@ -47,7 +47,8 @@ impl SceneRange {
     /// The range of a scene whose hittable triangles lie in `bounds` and whose smallest finite
     /// threshold [`crate::Triangle::min_det2`] is `min_threshold` (`+inf` when there is none).
     pub fn new(bounds: [Vec3; 2], min_threshold: f32) -> Self {
-        let tau = crate::math::sqrt_f64(f64::from(min_threshold));
+        // In f32 (the core has no f64 square root): `τ` rounded by a part in 2²⁴.
+        let tau = f64::from(crate::math::sqrt(min_threshold));
         let limit_over_inv = if tau > f64::from(TAU_MIN) {
             (f64::from(LIMIT) * tau / 3.0).min(f64::from(LIMIT)) as f32
         } else {
