@@ -41,7 +41,7 @@ impl<'a> Scene<'a> {
     /// library's `kdray::flat::serialize`), with only the checks that keep every access in range
     /// and every walk finite: the header (magic, version, length, contents, reserved words), the
     /// sections' bounds and overlaps, the scene box, the tree's pre-order layout and its leaves'
-    /// ranges and ids ([`Self::validate_tree`], linear in the nodes and the index list), the
+    /// ranges and ids (`validate_tree`, linear in the nodes and the index list), the
     /// groups' ranges and, for the wide section, that each reference a walk can enter points
     /// forward to a wide node or at a leaf in range.
     ///

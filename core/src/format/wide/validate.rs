@@ -102,7 +102,7 @@ pub fn validate(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
     Ok(())
 }
 
-/// What the walk ([`super::walk`]) needs of the wide section of words this process's builder
+/// What the wide walk needs of the wide section of words this process's builder
 /// wrote ([`Scene::from_built_words`]) to stay in range and end: every reference a ray can enter
 /// is a leaf of the node section or a wide node after its own, so every path through the section
 /// is at most its length. A slot a ray can never enter is one whose box is [`EMPTY_BOX`]
