@@ -5,6 +5,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { Scene } from '../src/index.js';
+import { rng } from './meshes.mjs';
 
 const FACES = [
   0, 2, 1, 0, 3, 2, // z = 0
@@ -23,21 +24,9 @@ function longBox(length) {
   return new Float32Array(corners.flat());
 }
 
-// A seeded generator (mulberry32), so that every run tests the same rays.
-function random(seed) {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
-}
-
 // n rays from inside the box as float32 (origin, direction) with their exact exit distances.
 function grazingRays(length, n, seed) {
-  const next = random(seed);
+  const next = rng(seed);
   const rays = [];
   for (let i = 0; i < n; i++) {
     const o = Float32Array.from([length * (0.3 + 0.4 * next()), 0.2 + 0.6 * next(), 0.2 + 0.6 * next()]);
