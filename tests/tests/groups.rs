@@ -2,7 +2,8 @@
 //! scalar kernels lane by lane, bit for bit, in both modes; a tree stored with groups returns
 //! exactly the hits of the same tree stored with an index list, for every walk (one ray over
 //! nodes or wide nodes, stream, packets), closest and any hit, fast and watertight; validation rebuilds
-//! each group and refuses any other; the serializer refuses groups for a scene with spheres.
+//! each group and refuses any other; the serializer refuses groups for a scene with spheres; a
+//! listed leaf's triangles, gathered four at a time for the same kernels, make the same groups.
 
 use glam::Vec3;
 use kdray::Geometry;
@@ -274,6 +275,30 @@ fn a_group_holds_its_lanes_as_the_triangles_section_does() {
     assert_eq!(group::groups_for(1), 0);
     assert_eq!(group::groups_for(2), 1);
     assert_eq!(group::groups_for(5), 2);
+}
+
+/// A listed leaf's triangles are tested four at a time in a group gathered from the triangles
+/// section (`Scene::gather_group`): it must be the group `pack` makes of the same lanes, padding
+/// included, for one to four ids.
+#[test]
+fn a_gathered_group_is_the_packed_group_of_its_triangles() {
+    let geom = scattered_triangles(40);
+    let [list, _] = both_leaves(&geom, 80.0, 1, Layout::Nodes);
+    let scene = Scene::from_words(&list).unwrap();
+    let all: Vec<u32> = (0..scene.tri_count()).collect();
+    for ids in all
+        .chunks(3)
+        .chain(all.chunks(4))
+        .chain(all.chunks(1))
+        .chain(all.chunks(2))
+    {
+        let lanes: Vec<group::Lane> = ids
+            .iter()
+            .map(|&i| (i, scene.vertices(i), scene.prepared_triangle(i).1))
+            .collect();
+        assert_eq!(scene.gather_group(ids), group::pack(&lanes), "ids {ids:?}");
+    }
+    assert_eq!(group::PADDING, group::pack(&[]));
 }
 
 /// Only kernels for triangles-only contents read groups (`Contents::GROUPS`): a target that names

@@ -383,6 +383,23 @@ impl<'a> Scene<'a> {
         stored_vertices(&self.tris[i as usize])
     }
 
+    /// Triangles `ids` (one to four, `< tri_count`) as one group ([`crate::group`]), lane `j`
+    /// triangle `ids[j]` exactly as stored, the lanes past `ids.len()` padding: what the 4-wide
+    /// kernels test a listed leaf's triangles in, four at a time. The stored triangle's ten
+    /// words (vertices, threshold) are the group's rows, so this is a 10×4 transpose.
+    #[inline(always)]
+    pub fn gather_group(&self, ids: &[u32]) -> Group {
+        let mut g = group::PADDING;
+        for (j, &id) in ids.iter().take(group::WIDTH).enumerate() {
+            let s = &self.tris[id as usize];
+            for (m, x) in s.iter().enumerate() {
+                g[group::WIDTH * m + j] = x.to_bits();
+            }
+            g[group::slot::IDS + j] = id;
+        }
+        g
+    }
+
     /// The geometric normal of primitive `prim` at a point `p` on it, not normalized: `e1 × e2`
     /// for a triangle ([`Triangle::geometric_normal`]), `(p − c) / R` for a sphere
     /// ([`Sphere::normal`]). Zero for a degenerate triangle.

@@ -14,7 +14,7 @@
 
 use super::{Contents, entry_interval, entry_with_slack, widen};
 use crate::format::{LeafPrims, MAX_DEPTH, Scene};
-use crate::group::Group;
+use crate::group::{Group, WIDTH};
 use crate::ray::{Hit, Ray};
 use crate::simd::f32x4;
 use crate::simd::group::{closest_in_group, intersect_group_watertight};
@@ -61,18 +61,39 @@ impl Closest {
 impl Query for Closest {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
-        if C::GROUPS
-            && let LeafPrims::Groups(groups) = prims
-        {
-            for g in groups {
-                let found = intersect_group::<C>(g, &self.query, &self.shear);
-                if let Some((t, u, v, prim)) = closest_in_group(g, &found) {
-                    self.query.tmax = t;
-                    self.best = Hit { t, prim, u, v };
+        if C::GROUPS {
+            if let LeafPrims::Groups(groups) = prims {
+                for g in groups {
+                    self.group::<C>(g);
                 }
+                return (self.query.tmax, false);
             }
-            return (self.query.tmax, false);
+            if let LeafPrims::Many(ids) = prims {
+                // A listed leaf's triangles four at a time, gathered from the triangles section.
+                for ids in ids.chunks(WIDTH) {
+                    self.group::<C>(&scene.gather_group(ids));
+                }
+                return (self.query.tmax, false);
+            }
         }
+        self.one_by_one::<C>(scene, prims)
+    }
+}
+
+impl Closest {
+    /// The four triangles of `g`.
+    #[inline(always)]
+    fn group<C: Contents>(&mut self, g: &Group) {
+        let found = intersect_group::<C>(g, &self.query, &self.shear);
+        if let Some((t, u, v, prim)) = closest_in_group(g, &found) {
+            self.query.tmax = t;
+            self.best = Hit { t, prim, u, v };
+        }
+    }
+
+    /// A leaf's primitives one at a time.
+    #[inline(always)]
+    fn one_by_one<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
         for &prim in prims.listed() {
             if let Some((t, u, v)) =
                 scene.intersect_prim_sheared::<C>(prim, &self.query, &self.shear)
@@ -115,13 +136,21 @@ impl Query for Occlusion {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
         let (ray, shear) = (&self.ray, &self.shear);
-        if C::GROUPS
-            && let LeafPrims::Groups(groups) = prims
-        {
-            self.found = groups
-                .iter()
-                .any(|g| intersect_group::<C>(g, ray, shear).mask.any());
-            return (self.ray.tmax, self.found);
+        if C::GROUPS {
+            if let LeafPrims::Groups(groups) = prims {
+                self.found = groups
+                    .iter()
+                    .any(|g| intersect_group::<C>(g, ray, shear).mask.any());
+                return (self.ray.tmax, self.found);
+            }
+            if let LeafPrims::Many(ids) = prims {
+                self.found = ids.chunks(WIDTH).any(|ids| {
+                    intersect_group::<C>(&scene.gather_group(ids), ray, shear)
+                        .mask
+                        .any()
+                });
+                return (self.ray.tmax, self.found);
+            }
         }
         self.found = prims.listed().iter().any(|&prim| {
             scene
