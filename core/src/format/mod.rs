@@ -503,7 +503,8 @@ fn stored_triangle(s: &[f32; stride::TRIANGLE]) -> Triangle {
 /// pass.
 ///
 /// Here, in the format's own file: both validations use it, `validate` and `wide::validate`, and
-/// the first calls the second, so in either one it would close a circle of imports.
+/// the first calls the second, so in either one it would close a circle of imports
+/// (scripts/core-imports.py).
 #[inline]
 fn same_words(a: &[u32], b: &[u32]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0, |acc, (x, y)| acc | (x ^ y)) == 0
