@@ -58,7 +58,7 @@ pub fn intersect_group(g: &Group, ray: &Ray) -> PrimHits<f32x4> {
         |j| {
             let [v0, v1, v2] = lane_vertices(g, j);
             let Triangle { v0, e1, e2 } = Triangle::from_vertices(v0, v1, v2);
-            crate::far::intersect_moller_trumbore(v0, e1, e2, ray)
+            crate::far::intersect_moller_trumbore(&v0, &e1, &e2, ray)
         },
     )
 }
