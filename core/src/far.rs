@@ -23,21 +23,33 @@
 //! crack opens where the two paths meet. Only when a vertex relative to the origin itself
 //! overflows f32 (`|v − o|` past `3.4·10³⁸`, both near f32's largest values with opposite signs)
 //! is everything computed in f64 from the inputs, without that guarantee.
+//!
+//! These are the lowest of the triangle kernels: [`crate::triangle`] and [`crate::watertight`]
+//! call them, so they take the triangle's vectors and the shear's fields, not the two types, and
+//! import neither.
 
 use crate::distance::hit_t;
 use crate::ray::Ray;
-use crate::triangle::Triangle;
-use crate::watertight::Shear;
 use glam::Vec3;
 
-/// Möller–Trumbore ([`Triangle::intersect_prepared`]) in f64, for a ray already known not to be
-/// parallel to the triangle (`det² > min_det2` in f32): the hit `(t, α, β)` rounded to f32, with
-/// the f32 kernel's tests (`0 ≤ α ≤ 1`, `β ≥ 0`, `α + β ≤ 1`, `tmin < t < tmax` on the rounded
-/// `t`), or `None`.
+/// Möller–Trumbore ([`Triangle::intersect_prepared`](crate::triangle::Triangle::intersect_prepared))
+/// in f64 on the triangle's `v0`, `e1`, `e2` (its [`Triangle`](crate::triangle::Triangle)
+/// fields), for a ray already known not to be parallel to the triangle (`det² > min_det2` in f32):
+/// the hit `(t, α, β)` rounded to f32, with the f32 kernel's tests (`0 ≤ α ≤ 1`, `β ≥ 0`,
+/// `α + β ≤ 1`, `tmin < t < tmax` on the rounded `t`), or `None`.
+///
+/// The vectors by reference: by value, the three of them lengthened the callers' hot paths
+/// (scripts/icount.sh: fast mode's stream +3.1 % instructions per ray, its one-ray walks ±1.5 %);
+/// references leave every row of that count as it was with `&Triangle`.
 #[cold]
 #[inline(never)]
-pub fn intersect_moller_trumbore(tri: &Triangle, ray: &Ray) -> Option<(f32, f32, f32)> {
-    let (v0, e1, e2) = (f64s(tri.v0), f64s(tri.e1), f64s(tri.e2));
+pub fn intersect_moller_trumbore(
+    v0: &Vec3,
+    e1: &Vec3,
+    e2: &Vec3,
+    ray: &Ray,
+) -> Option<(f32, f32, f32)> {
+    let (v0, e1, e2) = (f64s(*v0), f64s(*e1), f64s(*e2));
     let (o, d) = (f64s(ray.origin), f64s(ray.dir));
     let p = cross(d, e2);
     let det = dot(e1, p);
@@ -56,18 +68,21 @@ pub fn intersect_moller_trumbore(tri: &Triangle, ray: &Ray) -> Option<(f32, f32,
 }
 
 /// The watertight test ([`crate::watertight::intersect_sheared`]) in f64, with the ray's f32
-/// [`Shear`]: the edge functions' signs and `det ≠ 0` in f64, then the hit's `t` as the f32
-/// kernel takes it ([`crate::distance::hit_t`], already f64) and the barycentrics rounded to f32,
-/// or `None`. The caller has checked that the triangle is not degenerate.
+/// shear `k = [kx, ky, kz]`, `s = [Sx, Sy]` (the fields of its
+/// [`Shear`](crate::watertight::Shear)): the edge functions' signs and `det ≠ 0` in f64, then the
+/// hit's `t` as the f32 kernel takes it ([`crate::distance::hit_t`], already f64) and the
+/// barycentrics rounded to f32, or `None`. The caller has checked that the triangle is not
+/// degenerate.
 #[cold]
 #[inline(never)]
 pub fn intersect_watertight(
     verts: &[Vec3; 3],
     ray: &Ray,
-    shear: &Shear,
+    k: [usize; 3],
+    s: [f32; 2],
 ) -> Option<(f32, f32, f32)> {
-    let [kx, ky, kz] = shear.k;
-    let [sx, sy, _] = shear.s;
+    let [kx, ky, kz] = k;
+    let [sx, sy] = s;
     // The f32 kernel's sheared coordinates, bit for bit (module doc).
     let rel32 = verts.map(|v| v - ray.origin);
     let sheared32 = rel32.map(|a| [a[kx] - sx * a[kz], a[ky] - sy * a[kz]]);

@@ -135,7 +135,7 @@ impl Triangle {
         if hit {
             Some((t, a, b))
         } else if overflowed(det, min_det2, a + b, t, ray.tmin, ray.tmax) {
-            crate::far::intersect_moller_trumbore(self, ray)
+            crate::far::intersect_moller_trumbore(&self.v0, &self.e1, &self.e2, ray)
         } else {
             None
         }

@@ -167,7 +167,7 @@ pub fn intersect_sheared(
         let t = hit_t(verts, ray.origin, ray.dir, ray.tmin, ray.tmax)?;
         Some((t, v * inv, w * inv))
     } else if overflowed(det, inv, ray.tmin, ray.tmax) {
-        crate::far::intersect_watertight(verts, ray, shear)
+        crate::far::intersect_watertight(verts, ray, shear.k, [sx, sy])
     } else {
         None
     }

@@ -2,7 +2,7 @@
 
 use super::{
     FormatError, HEADER_WORDS, LINE_WORDS, MAGIC, MAX_DEPTH, SECTION_ALIGN, Scene, VERSION,
-    checksum, contents, header, stored_triangle, stored_vertices, stride,
+    checksum, contents, header, same_words, stored_triangle, stored_vertices, stride,
 };
 use crate::group;
 use crate::node::Node;
@@ -500,13 +500,4 @@ impl<'a> Scene<'a> {
         }
         Ok(())
     }
-}
-
-/// Whether `a` and `b` hold the same words: a fold over every word with no early exit, where
-/// `a != b` on arrays calls `memcmp`, which on wasm32 compares byte by byte: that call was 5 % of
-/// the npm package's `Scene.build` (the torus knot, `fast`; a profile in Node), here one SIMD
-/// pass.
-#[inline]
-pub(crate) fn same_words(a: &[u32], b: &[u32]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).fold(0, |acc, (x, y)| acc | (x ^ y)) == 0
 }

@@ -57,7 +57,8 @@ pub fn intersect_group(g: &Group, ray: &Ray) -> PrimHits<f32x4> {
         splat(ray.tmax),
         |j| {
             let [v0, v1, v2] = lane_vertices(g, j);
-            crate::far::intersect_moller_trumbore(&Triangle::from_vertices(v0, v1, v2), ray)
+            let Triangle { v0, e1, e2 } = Triangle::from_vertices(v0, v1, v2);
+            crate::far::intersect_moller_trumbore(&v0, &e1, &e2, ray)
         },
     )
 }
@@ -109,7 +110,10 @@ pub fn intersect_group_watertight(g: &Group, ray: &Ray, shear: &Shear) -> PrimHi
                 ray.tmax,
             )
         },
-        |j| crate::far::intersect_watertight(&lane_vertices(g, j), ray, shear),
+        |j| {
+            let [sx, sy, _] = shear.s;
+            crate::far::intersect_watertight(&lane_vertices(g, j), ray, shear.k, [sx, sy])
+        },
     )
 }
 

@@ -130,7 +130,7 @@ fn splat_triangle<L: Lanes, const CHECKED: bool>(
         &rays.dir,
         rays.tmin,
         rays.tmax,
-        |i| crate::far::intersect_moller_trumbore(tri, &rays.ray(i)),
+        |i| crate::far::intersect_moller_trumbore(&tri.v0, &tri.e1, &tri.e2, &rays.ray(i)),
     )
 }
 

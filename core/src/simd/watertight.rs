@@ -112,7 +112,8 @@ pub fn intersect_triangle_watertight_prepared<L: Lanes>(
         },
         |i| {
             let ray = rays.ray(i);
-            crate::far::intersect_watertight(verts, &ray, &Shear::new(ray.dir))
+            let Shear { k, s: [sx, sy, _] } = Shear::new(ray.dir);
+            crate::far::intersect_watertight(verts, &ray, k, [sx, sy])
         },
     )
 }
