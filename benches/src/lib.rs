@@ -13,6 +13,7 @@
 //!   `rtcIntersect1` and `rtcIntersect8`; feature `embree`, which links `libembree3` (Debian:
 //!   `libembree-dev`, installed by `scripts/bench-setup.sh`).
 //!
+//! - [`front`]: the builder settings that `front` (docs/BUILD.md, "The front") measures.
 //! - [`setup::Workload`]: the protocol's mesh, tree and ray sets, for each of the camera framings
 //!   in [`framing`] (loose and tight).
 //!
@@ -21,6 +22,7 @@
 //! in the workspace with `unsafe` code (the Embree FFI); each block states why it is sound.
 
 pub mod framing;
+pub mod front;
 pub mod peer_bvh;
 #[cfg(feature = "embree")]
 pub mod peer_embree;

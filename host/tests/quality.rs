@@ -161,7 +161,8 @@ fn every_quality_builds_the_meshes_into_trees_that_hit_as_brute_force() {
 
 #[test]
 fn fast_without_binning_and_with_perfect_splits_is_the_high_tree() {
-    // The two builders share the SAH and the rules; only the search and the clipping differ.
+    // The two builders share the SAH and the rules; only the search and the clipping differ
+    // (and `fast`'s reference budget and depth rule, set by `with_quality`, left out here).
     let geom = mesh("scenes/meshes/bunny.ply.gz");
     let high = BuildParams {
         parallel: false,
@@ -173,7 +174,9 @@ fn fast_without_binning_and_with_perfect_splits_is_the_high_tree() {
             clip_min: 0,
             ..FastParams::default()
         },
-        ..high.with_quality(Quality::Fast)
+        // `with_quality(Fast)` also sets its budget and drops the deep levels: put back `high`'s.
+        quality: Quality::Fast,
+        ..high
     };
     // The event builder lists a leaf's straddlers last, the fast one in its parent's order.
     fn sorted(node: BuildNode) -> BuildNode {

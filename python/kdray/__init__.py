@@ -51,7 +51,7 @@ _BUILD_OPTIONS = {
     "leaves": ("groups", "list"),
     "quality": ("fast", "high"),
 }
-_DEFAULTS = {"layout": "wide", "leaves": "groups", "quality": "fast"}
+_DEFAULTS = {"layout": "wide", "leaves": "list", "quality": "fast"}
 
 
 class Hits(NamedTuple):
@@ -277,7 +277,7 @@ class Scene:
     """A triangle mesh and its SAH kd-tree, ready to trace rays.
 
     ``Scene(vertices, faces=None, *, watertight=False, threads=None, origin=None,
-    layout='wide', leaves='groups', quality='fast')``
+    layout='wide', leaves='list', quality='fast')``
 
     - ``vertices``: ``(N, 3)`` floats (float32 is used as given, float64 converted once: the
       tree and the walks are float32, see ``origin``).
@@ -298,10 +298,14 @@ class Scene:
       tree does not, so pass it to :meth:`load` or :meth:`from_bytes` again.
     - build options: ``layout`` (``'wide'``: also store the tree as eight-wide nodes with tight
       boxes, which single rays walk faster; or ``'nodes'``: the binary nodes only, a smaller
-      tree), ``leaves`` (``'groups'``: triangles four to a SIMD group,
-      or ``'list'``: index lists) and ``quality`` (``'fast'``: binned planes, 2.5–3× faster to
-      build than ``'high'``, the exact sweep, whose tree takes about 8 % fewer instructions a
-      ray), as ``kdray build --layout/--leaves/--quality``.
+      tree), ``leaves`` (``'list'``: index lists, whose triangles the walk gathers four at a
+      time into one SIMD test; or ``'groups'``: the triangles copied four to a group, faster
+      single rays for two to four times the memory) and ``quality`` (``'fast'``: binned planes,
+      a triangle referenced at most twice over along a path, no levels past the depth limit —
+      the build for a first answer; or ``'high'``: the exact sweep at every node and level, a
+      build several times slower of a tree that traces faster — with ``leaves='groups'`` the
+      choice for many millions of rays; docs/BUILD.md, "The first answer"), as
+      ``kdray build --layout/--leaves/--quality``.
 
     Triangles are reported by their index in ``faces`` (input order). Degenerate triangles are
     kept in the numbering and never hit. Bad input raises ``ValueError`` (values) or

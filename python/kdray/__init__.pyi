@@ -47,7 +47,7 @@ class Scene:
         threads: Optional[int] = None,
         origin: _Origin = None,
         layout: Layout = "wide",
-        leaves: Leaves = "groups",
+        leaves: Leaves = "list",
         quality: Quality = "fast",
     ) -> None: ...
     @classmethod
@@ -60,7 +60,7 @@ class Scene:
         origin: _Origin = None,
         mmap: bool = False,
         layout: Layout = "wide",
-        leaves: Leaves = "groups",
+        leaves: Leaves = "list",
         quality: Quality = "fast",
     ) -> "Scene": ...
     @classmethod

@@ -227,7 +227,7 @@ pub fn build(
     let live_count = live.len();
     let share = Share {
         weight: PROGRESS_TOTAL,
-        refs: REFERENCE_BUDGET * live_count as f64,
+        refs: params.reference_budget * live_count as f64,
     };
     if params.quality == Quality::Fast {
         let refs = live

@@ -32,6 +32,10 @@ pub struct BuildParams {
     pub quality: Quality,
     /// The `fast` builder's settings (unused by `high`).
     pub fast: fast::FastParams,
+    /// References a build may make per primitive ([`super::REFERENCE_BUDGET`] by default): a
+    /// node whose primitives were duplicated more than this many times over along its path is a
+    /// leaf.
+    pub reference_budget: f64,
 }
 
 /// How hard the builder searches, as Embree's build quality: both make valid trees of the same
@@ -43,12 +47,15 @@ pub enum Quality {
     #[default]
     High,
     /// Binned planes on all but the smallest nodes, the exact sweep on those ([`fast`]);
-    /// straddlers split by the plane alone by default ([`fast::FastParams::clip_min`]).
+    /// straddlers split by the plane alone by default ([`fast::FastParams::clip_min`]); at most
+    /// [`FAST_REFERENCE_BUDGET`] references a triangle along a path, no levels past the depth
+    /// limit ([`BuildParams::with_quality`]).
     #[cfg_attr(
         feature = "cli",
         value(
             help = "Binned planes on all but the smallest nodes, the exact sweep on those; \
-                      straddlers split by the plane alone by default"
+                      straddlers split by the plane alone; at most 2 references a triangle \
+                      along a path, no levels past the depth limit: for building at run time"
         )
     )]
     Fast,
@@ -80,14 +87,26 @@ impl Default for BuildParams {
             deep_leaf_prims: DEEP_LEAF_PRIMS,
             quality: Quality::default(),
             fast: fast::FastParams::default(),
+            reference_budget: super::REFERENCE_BUDGET,
         }
     }
 }
 
 impl BuildParams {
-    /// These parameters built at `quality`.
+    /// These parameters built at `quality`. [`Quality::Fast`] also bounds the references a
+    /// path may make ([`FAST_REFERENCE_BUDGET`]) and drops the levels past the depth limit
+    /// ([`BuildParams::deep_leaf_prims`] unbounded): a tree for a user who builds at run time
+    /// (docs/BUILD.md, "The first answer").
     pub fn with_quality(self, quality: Quality) -> Self {
-        Self { quality, ..self }
+        match quality {
+            Quality::High => Self { quality, ..self },
+            Quality::Fast => Self {
+                quality,
+                reference_budget: FAST_REFERENCE_BUDGET,
+                deep_leaf_prims: usize::MAX,
+                ..self
+            },
+        }
     }
 
     /// The defaults for leaves stored in groups of four (docs/BUILD.md, "Triangle groups"): the
@@ -103,6 +122,14 @@ impl BuildParams {
         }
     }
 }
+
+/// [`Quality::Fast`]'s [`BuildParams::reference_budget`]: a node whose triangles were
+/// duplicated more than twice over along its path is a leaf. With the levels past the depth limit
+/// dropped, it made the dragon-2 decimation's build 2.8× fewer instructions than the budget of
+/// 32 with every level (6.9 K against 19.4 K a triangle) for a random ray 2.2× as costly
+/// (1,935 instructions against 898), and 66 bytes a triangle with index lists against 272 with
+/// groups (docs/BUILD.md, "The first answer").
+pub const FAST_REFERENCE_BUDGET: f64 = 2.0;
 
 /// [`BuildParams::grouped`]'s intersection cost.
 pub const GROUPED_INTERSECT_COST: f64 = 3.0;

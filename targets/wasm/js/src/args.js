@@ -35,17 +35,19 @@ export function loadOptions(options) {
 /**
  * kdj_build's `layout`, `leaves` and `quality` arguments from a build's options: `layout`
  * 'wide' (default: the tree also as eight-wide nodes with tight boxes, faster single rays) or
- * 'nodes'; `leaves` 'groups' (default: triangles four to a SIMD group, tested at once) or 'list'
- * (index lists: about half the memory, slower single rays); `quality` 'fast' (default: binned
- * planes, the builder's `--quality fast`) or 'high' (the exact sweep at every node: a slower
- * build of a tree a few per cent cheaper to trace). Anything else throws.
+ * 'nodes'; `leaves` 'list' (default: index lists, whose triangles the walk gathers four at a
+ * time into a SIMD test) or 'groups' (the triangles copied into groups of four: faster single
+ * rays, two to four times the memory); `quality` 'fast' (default: binned planes, at most two
+ * references a triangle along a path, no levels past the depth limit: the build for a first
+ * answer) or 'high' (the exact sweep at every node, every level: a slower build of a tree that
+ * traces faster, for many millions of rays). Anything else throws.
  */
 export function buildFlags(options) {
   checkOptions(options, BUILD_OPTIONS, 'Scene.build');
   // Only an absent option takes its default: null is a value, and refused.
   const given = (key, fallback) => (options?.[key] === undefined ? fallback : options[key]);
   const layout = given('layout', 'wide');
-  const leaves = given('leaves', 'groups');
+  const leaves = given('leaves', 'list');
   const quality = given('quality', 'fast');
   if (layout !== 'wide' && layout !== 'nodes') {
     const retired = layout === 'blocked' ? " ('blocked' was retired: 'wide' replaces it)" : '';

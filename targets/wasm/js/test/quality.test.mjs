@@ -64,7 +64,7 @@ test("the default quality is 'fast'", async () => {
   const plain = (await Scene.build(positions, indices)).toBytes();
   assert.deepEqual(plain, (await Scene.build(positions, indices, { quality: 'fast' })).toBytes());
   assert.notDeepEqual(plain, (await Scene.build(positions, indices, { quality: 'high' })).toBytes());
-  assert.deepEqual(plain, Scene.buildSync(positions, indices, { leaves: 'groups', quality: undefined }).toBytes());
+  assert.deepEqual(plain, Scene.buildSync(positions, indices, { leaves: 'list', quality: undefined }).toBytes());
 });
 
 test('buildInWorker builds at the quality asked for', async () => {

@@ -64,7 +64,7 @@ test('bunny, watertight', compare(bunny().positions, bunny().indices, 1500, 8, {
 test('bunny, index-list leaves', compare(bunny().positions, bunny().indices, 1500, 14, { leaves: 'list' }));
 test('random soup, index-list leaves, watertight', compare(soup(400, 15), undefined, 1500, 16, { leaves: 'list', watertight: true }));
 
-// Triangle groups (the default) and index lists are two trees over the same triangles, tested by
+// Triangle groups and index lists (the default) are two trees over the same triangles, tested by
 // the same arithmetic lane by lane: every ray meets its first triangle at the same t in both,
 // and where they name different faces, both faces lie at that t (a tie: the other tree reached
 // the other one first).
@@ -73,8 +73,8 @@ test('group and index-list leaves give the same hits', async () => {
   const n = 4000;
   const rs = rays(positions, n, 17);
   for (const watertight of [false, true]) {
-    const groups = await Scene.build(positions, indices, { watertight });
-    const list = await Scene.build(positions, indices, { watertight, leaves: 'list' });
+    const groups = await Scene.build(positions, indices, { watertight, leaves: 'groups' });
+    const list = await Scene.build(positions, indices, { watertight });
     assert.ok(groups.toBytes().length > list.toBytes().length, 'groups store triangles inline');
     const [hg, hl] = [groups.raycastMany(rs), list.raycastMany(rs)];
     const [fg, fl] = [new Uint32Array(hg.buffer), new Uint32Array(hl.buffer)];

@@ -14,17 +14,19 @@ export interface SceneOptions {
    */
   layout?: 'wide' | 'nodes';
   /**
-   * How a leaf holds its triangles: 'groups' (the default) inline, four to a SIMD group tested
-   * in one pass, built with the SAH priced in groups — single rays about 20 % faster; 'list'
-   * as indices into one triangle array, about half the memory (Scene.build only: a loaded
-   * .kdt keeps its own).
+   * How a leaf holds its triangles: 'list' (the default) as indices into one triangle array,
+   * which the walk gathers four at a time into one SIMD test; 'groups' copied inline, four to a
+   * group — single rays faster, two to four times the memory. Both are built with the SAH priced
+   * in groups (Scene.build only: a loaded .kdt keeps its own).
    */
   leaves?: 'groups' | 'list';
   /**
-   * The builder: 'fast' (the default) picks planes from bins on all but the smallest nodes, as
-   * `kdray build --quality fast` does; 'high' sweeps every candidate plane exactly at every node
-   * (`--quality high`), a slower build of a tree a few per cent cheaper to trace. Both make valid
-   * trees of the same format (Scene.build only: a loaded .kdt keeps its own).
+   * The builder: 'fast' (the default) picks planes from bins on all but the smallest nodes and
+   * lets a triangle be referenced at most twice over along a path, with no levels past the
+   * depth limit, as `kdray build --quality fast` does: the build for a first answer; 'high'
+   * sweeps every candidate plane exactly at every node, every level (`--quality high`): a build
+   * several times slower of a tree that traces faster, for many millions of rays. Both make
+   * valid trees of the same format (Scene.build only: a loaded .kdt keeps its own).
    */
   quality?: 'fast' | 'high';
 }
