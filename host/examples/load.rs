@@ -35,7 +35,7 @@ fn main() -> Result<(), Box<dyn core::error::Error>> {
         let scene = Scene::from_words(&words).map_err(|e| format!("{path}: {e}"))?;
         ms.push(start.elapsed().as_secs_f64() * 1e3);
         cpu.push(kdray::cpu::process_ms().zip(cpu_start).map(|(b, a)| b - a));
-        std::hint::black_box(&scene);
+        core::hint::black_box(&scene);
     }
     let line: Vec<String> = ms.iter().map(|m| format!("{m:.1}")).collect();
     ms.sort_by(f64::total_cmp);
