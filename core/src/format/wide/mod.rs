@@ -1,6 +1,6 @@
 //! Wide nodes (the format's optional wide section, since v10): their encoding, the cut that
-//! chooses their children (shared by the writer, `kdray::wide`, and validation) and the
-//! validation; the walk is [`crate::traverse::wide`]. The kd-tree collapsed into nodes
+//! chooses their children (the writer's, `kdray::wide`; validation no longer recomputes it) and
+//! the validation; the walk is [`crate::traverse::wide`]. The kd-tree collapsed into nodes
 //! of up to eight children, each child a cell of the binary tree with a conservative **tight box**, so
 //! that one ray decides a node's eight children in one 8-wide slab test, as wide BVHs are walked
 //! (Wald et al. 2008, "Getting rid of packets"; Ylitie et al. 2017, "Efficient incoherent ray
@@ -155,7 +155,8 @@ fn half_area(cell: &Bounds) -> f32 {
 /// first any whose opening adds no child (one child an empty leaf), else the one with the largest
 /// cell surface area (the likeliest to be entered; the first in slot order on a tie), as long as
 /// the cut keeps at most [`WIDTH`] children and the node lies less than [`MAX_OPEN_DEPTH`] levels
-/// below `root`. Deterministic in the node section alone, which is how validation recomputes it.
+/// below `root`. Deterministic in the node section alone (validation recomputed it until issue 38;
+/// it now checks only what the walk's answers need, see [`validate`]).
 pub fn frontier(node: impl Fn(u32) -> Node, root: u32, cell: Bounds) -> Frontier {
     let mut items: heapless::Vec<Item, WIDTH> = heapless::Vec::new();
     if !node(root).is_empty_leaf() {
