@@ -422,6 +422,78 @@ fn recut(words: &[u32], grow: bool) -> Vec<u32> {
     w
 }
 
+/// A chain of wide nodes of two children each, one the next wide node and the other a leaf,
+/// every box the scene's, the leaves in order. With the wide child in slot 1 it loads; in slot
+/// 0, a walk that enters both slots takes slot 0 again at the order words' positions past the
+/// count (they name slot 0), so each level multiplies the walk by up to seven: refused past
+/// `MAX_REPEATS` such levels.
+#[test]
+fn a_chain_of_repeated_slots_is_refused() {
+    use kdray_core::format::wide::validate::MAX_REPEATS;
+    // A scene of a few triangles: a chain as deep as its leaves stays within the walk's stack.
+    let leaves_of = |scene: &Scene| -> Vec<u32> {
+        (0..scene.node_count())
+            .filter(|&i| scene.node(i).is_leaf() && !scene.node(i).is_empty_leaf())
+            .collect()
+    };
+    let words = (3..40)
+        .map(|n| layouts(&scattered_triangles(n), 80.0, Leaves::List).1)
+        .find(|w| {
+            let k = leaves_of(&Scene::from_words(w).unwrap()).len();
+            (MAX_REPEATS + 3..60).contains(&k)
+        })
+        .expect("a scene of 8 to 59 leaves");
+    let scene = Scene::from_words(&words).unwrap();
+    let leaves = leaves_of(&scene);
+    // `m` nodes for the `m + 1` leaves, in slot order whichever slot holds the wide child.
+    let m = leaves.len() - 1;
+    let chain = |wide_slot: usize| {
+        let mut section = Vec::new();
+        for i in 0..m {
+            let mut node: WideNode = [0; NODE_WORDS];
+            for slot in 0..WIDTH {
+                let b = if slot < 2 { scene.bounds() } else { EMPTY_BOX };
+                set_slot_box(&mut node, slot, b);
+            }
+            if i + 1 == m {
+                node[REFS] = LEAF_REF | leaves[if wide_slot == 0 { 0 } else { m - 1 }];
+                node[REFS + 1] = LEAF_REF | leaves[if wide_slot == 0 { 1 } else { m }];
+            } else {
+                // Slot 0 wide: the leaves come back up the chain; slot 1 wide: on the way down.
+                let leaf = if wide_slot == 0 {
+                    leaves[m - i]
+                } else {
+                    leaves[i]
+                };
+                node[REFS + wide_slot] = i as u32 + 1;
+                node[REFS + 1 - wide_slot] = LEAF_REF | leaf;
+            }
+            node[ORDERS..].fill(2 << 24 | 1 << 3);
+            section.push(node);
+        }
+        section
+    };
+    let (at, n) = section(&words);
+    assert_eq!(
+        at + n * NODE_WORDS,
+        words.len(),
+        "the wide section is the last"
+    );
+    let with = |section: Vec<WideNode>| {
+        let mut w = words[..at].to_vec();
+        w.extend(section.iter().flatten());
+        w[header::TOTAL_WORDS] = w.len() as u32;
+        w[header::WIDE_COUNT] = section.len() as u32;
+        seal(&mut w);
+        Scene::from_words(&w).map(|_| ())
+    };
+    assert_eq!(with(chain(1)), Ok(()));
+    assert!(matches!(
+        with(chain(0)),
+        Err(FormatError::BadWideNode { .. })
+    ));
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(64)))]
 
