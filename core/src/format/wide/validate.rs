@@ -19,8 +19,11 @@
 //! - **Boxes.** Each used slot's box is finite and inside its parent slot's box (the root's: the
 //!   scene box), and contains what its child holds: for a leaf, each hittable primitive's box
 //!   clipped to the leaf's cell. An empty box (low > high on an axis) only where the child holds
-//!   nothing to hit. So a hit point of a primitive lies in the box of a leaf holding it and in
-//!   every box above it, and the conservative slab test enters them all.
+//!   nothing to hit. So a hit point of a primitive inside the cell of a leaf that holds it (where
+//!   the node walk finds it) lies in that leaf's box and in every box above it, and the
+//!   conservative slab test enters them all. (That the node section's leaves hold every
+//!   primitive meeting their cells is not checked, here or by the node walk's validation: a
+//!   crafted tree answers for the scene it stores.)
 //!
 //! Not checked, because the walk's answers do not depend on it: that a node's children are the
 //! greedy cut ([`super::frontier`]) of a binary node, that a box lies inside its cell, and that
