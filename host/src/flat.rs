@@ -441,7 +441,13 @@ impl core::ops::Deref for Aligned {
     }
 }
 
-/// Reads a `.kdt` file (a regular file) into words and validates it.
+/// Reads a `.kdt` file (a regular file) into words, not validated: open them with
+/// `Scene::from_words`, as every caller does (each validated them a second time while this
+/// validated too: `kdray trace FILE.kdt`, `info`, `rays` and the Python package's `Scene.load`
+/// paid twice the load, issue 38).
+///
+/// # Errors
+/// A file that cannot be read or is not a whole number of words.
 pub fn read_kdt(path: &Path) -> Result<Vec<u32>> {
     let bytes = crate::files::read(path)?;
     if !bytes.len().is_multiple_of(4) {
@@ -453,13 +459,10 @@ pub fn read_kdt(path: &Path) -> Result<Vec<u32>> {
             ),
         ));
     }
-    let words: Vec<u32> = bytes
+    Ok(bytes
         .chunks_exact(4)
         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
-    Scene::from_words(&words)
-        .map_err(|e| Error::new(path, format!("invalid kd-tree file: {e}")))?;
-    Ok(words)
+        .collect())
 }
 
 /// What `kdray info` reports about a tree.

@@ -1,7 +1,7 @@
 //! Collapsing the serialized kd-tree into the format's wide nodes
 //! (`kdray_core::format::wide`, where the encoding is documented): each wide node takes the greedy
-//! cut of its binary subtree (`kdray_core::format::wide::frontier`, which validation
-//! recomputes), and each child's box is computed bottom up: a leaf's, the union of its
+//! cut of its binary subtree (`kdray_core::format::wide::frontier`; validation checks what the
+//! walk's answers need, not the cut itself, which `tests/tests/wide_cut.rs` checks), and each child's box is computed bottom up: a leaf's, the union of its
 //! primitives' boxes clipped to its cell; a wide node's, the union of its own boxes. Wide nodes are
 //! numbered in the order a depth-first walk in slot order first enters them.
 

@@ -81,15 +81,21 @@ pub enum FormatError {
     BadGroup {
         node: u32,
     },
-    /// A wide node's references, count, orders or unused slots are not the ones its cut of the
-    /// node tree gives, or it is entered out of turn ([`crate::format::wide`]).
+    /// A wide node is entered out of turn, its count, orders or unused slots are not of the
+    /// format's shape, or a leaf reference is not the node tree's next leaf
+    /// ([`crate::format::wide::validate`]).
     BadWideNode {
         node: u32,
     },
-    /// A wide node's box lies outside its cell or its parent's box, or does not contain what
+    /// A wide node's box is not finite, lies outside its parent's box, or does not contain what
     /// its child holds.
     BadWideBox {
         node: u32,
+    },
+    /// A non-empty leaf of the node tree is the child of no wide node: the wide walk would never
+    /// test its primitives.
+    WideLeafLeftOut {
+        leaf: u32,
     },
     /// An input id is not below the triangle count.
     BadInputId {
@@ -172,12 +178,15 @@ impl core::fmt::Display for FormatError {
             ),
             Self::BadWideNode { node } => write!(
                 f,
-                "wide node {node}: its children or orders differ from the node tree's"
+                "wide node {node}: entered out of turn, a malformed order or unused slot, or not the node tree's next leaf"
             ),
             Self::BadWideBox { node } => write!(
                 f,
-                "wide node {node}: a box lies outside its cell or misses what its child holds"
+                "wide node {node}: a box is not finite, lies outside its parent's or misses what its child holds"
             ),
+            Self::WideLeafLeftOut { leaf } => {
+                write!(f, "node {leaf}: a leaf that no wide node references")
+            }
             Self::BadGroup { node } => write!(
                 f,
                 "node {node}: a triangle group differs from the triangles it names"

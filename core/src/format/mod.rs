@@ -89,9 +89,12 @@
 //! - **Wide nodes** (CONTENTS bit `WIDE`, version 10; the greedy cut since 11): the same tree collapsed into nodes of up
 //!   to eight children, each with a conservative tight box and a front-to-back order per
 //!   direction octant ([`crate::format::wide`], where the encoding is documented). Leaves stay
-//!   in the node section (a reference names the leaf node). Validation recomputes every node's
-//!   children and orders from the node section and checks every box against its cell and its
-//!   child's contents, so the wide walk returns the closest hit as the node walk does. When
+//!   in the node section (a reference names the leaf node). Validation checks what the wide walk
+//!   needs to return the closest hit as the node walk does (since issue 38, not the writer's cut
+//!   bit for bit): the wide nodes form one tree entered in index order, their leaves are the node
+//!   section's non-empty leaves in pre-order, each order word names every used slot once, and
+//!   every box is finite, inside its parent's and around its child's primitives clipped to the
+//!   leaf's cell ([`crate::format::wide::validate`]). When
 //!   present (and the core's `wide` feature is on), [`Scene::intersect`], [`Scene::occluded`]
 //!   and the stream's single rays walk it; the packet walks use the nodes. The section starts on
 //!   a multiple of [`LINE_WORDS`], so its nodes are whole cache lines when the words are 64-byte
@@ -105,7 +108,8 @@
 //! index-list entries are checked once in one pass and a leaf only compares its range with where
 //! the previous leaf's ended (the tiling rule under **Indices**; a leaf's groups the same way,
 //! each group rebuilt from four triangle records and compared once); the wide section's check
-//! ([`crate::format::wide::validate`]) recomputes each wide node's cut once. In all about `c · W` word reads with a small constant `c` (the tests count them:
+//! ([`crate::format::wide::validate`]) enters each wide node once, passes the node section once
+//! more for the leaves' cells and checks each leaf's primitives once. In all about `c · W` word reads with a small constant `c` (the tests count them:
 //! `tests/tests/format.rs`). Before the tiling rule, 131,072 leaves naming one 500,000-entry range
 //! (a 4 MB file) cost 6.5·10¹⁰ checks; now it is refused at its second leaf with
 //! [`FormatError::IndexOrder`]. The same rule bounds a walk: the primitives one ray tests number at

@@ -49,7 +49,7 @@ impl<'a> Scene<'a> {
     /// damaged them), the geometry (finite vertices, each threshold equal to its recomputed
     /// [`crate::triangle::Triangle::min_det2`], every triangle and sphere inside the scene box),
     /// the input ids, the groups' contents (each rebuilt from its triangle records) and the wide
-    /// nodes' cuts and boxes (recomputed from the node section). Those checks are what make a
+    /// nodes' leaves, orders and boxes (checked against the node section's leaves and cells). Those checks are what make a
     /// *crafted* file's answers the ones of the scene it stores; the builder makes them true by
     /// construction, and the tests check that [`Self::from_words`] accepts every tree it builds
     /// (`tests/tests/built_words.rs`).

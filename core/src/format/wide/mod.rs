@@ -1,6 +1,6 @@
 //! Wide nodes (the format's optional wide section, since v10): their encoding, the cut that
-//! chooses their children (shared by the writer, `kdray::wide`, and validation) and the
-//! validation; the walk is [`crate::traverse::wide`]. The kd-tree collapsed into nodes
+//! chooses their children (the writer's, `kdray::wide`; validation no longer recomputes it) and
+//! the validation; the walk is [`crate::traverse::wide`]. The kd-tree collapsed into nodes
 //! of up to eight children, each child a cell of the binary tree with a conservative **tight box**, so
 //! that one ray decides a node's eight children in one 8-wide slab test, as wide BVHs are walked
 //! (Wald et al. 2008, "Getting rid of packets"; Ylitie et al. 2017, "Efficient incoherent ray
@@ -51,9 +51,13 @@
 //! touches (the slab test made conservative, [`crate::traverse::wide::walk`]) cannot miss it.
 //!
 //! # Validation
-//! [`validate`] recomputes each node's cut, references, counts and orders from the node section
-//! and requires the stored words bit for bit; it checks each box against its cell, its child's
-//! boxes or primitives, so in time linear in the words.
+//! [`validate`] checks what the walk's answers rest on, in time linear in the words: one tree of
+//! wide nodes entered in index order, no deeper than the walk's stack, whose leaves are the node
+//! section's non-empty leaves in pre-order; orders that name every used slot once; boxes finite,
+//! inside their parent's and around what their child holds (a leaf's primitives clipped to its
+//! cell). It does not recompute the cut, the orders or the cells of the wide nodes (it did until
+//! issue 38, at two thirds of the dragon's load): they make the walk fast, not right, and the
+//! checksum catches random damage to them. [`validate`]'s module doc says why each is safe.
 
 use crate::format::Scene;
 use crate::node::Node;
@@ -151,7 +155,8 @@ fn half_area(cell: &Bounds) -> f32 {
 /// first any whose opening adds no child (one child an empty leaf), else the one with the largest
 /// cell surface area (the likeliest to be entered; the first in slot order on a tie), as long as
 /// the cut keeps at most [`WIDTH`] children and the node lies less than [`MAX_OPEN_DEPTH`] levels
-/// below `root`. Deterministic in the node section alone, which is how validation recomputes it.
+/// below `root`. Deterministic in the node section alone (validation recomputed it until issue 38;
+/// it now checks only what the walk's answers need, see [`validate`]).
 pub fn frontier(node: impl Fn(u32) -> Node, root: u32, cell: Bounds) -> Frontier {
     let mut items: heapless::Vec<Item, WIDTH> = heapless::Vec::new();
     if !node(root).is_empty_leaf() {
