@@ -1,20 +1,63 @@
 //! Every crossing along a batch's rays (`count_intersections`, `intersect_all`, `contains`):
 //! the host's exact crossings (`kdray::crossings`, watertight), which count a ray through an
-//! edge or a vertex that triangles share once, ray by ray on the package's pool.
+//! edge or a vertex that triangles share once, ray by ray on the package's pool, in pieces of a
+//! few rays ([`FEW`]) walked in an order that keeps neighbouring rays together.
 //!
 //! The number of crossings has no cap (a ray may cross every triangle), so `intersect_all` keeps
 //! them in memory reserved fallibly, and stops every thread at the first refusal.
 
-use crate::rays::{Batch, for_chunks};
+use crate::rays::{Batch, MAX_PIECE, for_chunks};
 use crate::run::{Cancel, cancelled};
 use crate::stop::{self, Stop};
 use core::sync::atomic::Ordering;
-use kdray::crossings::{AllHit, all_hits};
+use glam::Vec3;
+use kdray::crossings::{AllHit, all_hits, coherent_order};
 use kdray_core::Scene;
 
-/// Calls `each(i, hits)` with every hit of ray `i` of `batch` (checked), exact on shared edges
-/// and vertices (`kdray::crossings`, watertight), for the rays of one piece at a time; stops
-/// early once `cancel` is set.
+/// Rays per piece of work at least, and the most that a call walks on the calling thread: one
+/// ray's every crossing can cost as much as thousands of closest hits (a ray through 2,000
+/// stacked quads, about 100 µs), so pieces far shorter than the closest hits' (`rays::CHUNK`)
+/// keep every thread busy; a batch of 1,000 such rays on one thread took twice as long.
+pub const FEW: usize = 16;
+
+/// Rays per piece for a batch of `n`: about four pieces a thread.
+fn piece(n: usize) -> usize {
+    if n <= FEW {
+        // On the calling thread: no question to rayon, whose global pool it would start.
+        return FEW;
+    }
+    n.div_ceil(4 * rayon::current_num_threads().max(1))
+        .clamp(FEW, MAX_PIECE)
+}
+
+/// Fills `out` (`n` answers) a piece at a time on the pool, each piece's items in
+/// [`coherent_order`] of their origins (`origin(i)` of item `i`): `answer(i, hits)` for item `i`,
+/// `hits` a buffer it may use. Stops early once `cancel` is set.
+fn in_pieces<T: Send>(
+    out: &mut [T],
+    cancel: &Cancel,
+    origin: impl Fn(usize) -> Vec3 + Sync,
+    answer: impl Fn(usize, &mut Vec<AllHit>) -> T + Sync,
+) {
+    let c = piece(out.len());
+    for_chunks(out, c, |k, out| {
+        let start = k * c;
+        let origins: Vec<Vec3> = (start..start + out.len()).map(&origin).collect();
+        let mut order = Vec::new();
+        coherent_order(&origins, &mut order);
+        let mut hits = Vec::new();
+        for &(_, j) in &order {
+            if cancelled(cancel) {
+                return;
+            }
+            let j = j as usize;
+            out[j] = answer(start + j, &mut hits);
+        }
+    });
+}
+
+/// Calls `each(i, len, hits)` with every hit of ray `i` of `batch` (checked), exact on shared
+/// edges and vertices (`kdray::crossings`, watertight), `len` the length of its direction.
 fn every_hit<T: Send>(
     scene: &Scene,
     batch: &Batch,
@@ -22,19 +65,16 @@ fn every_hit<T: Send>(
     cancel: &Cancel,
     each: impl Fn(usize, f64, &[AllHit]) -> T + Sync,
 ) {
-    let c = batch.pieces();
-    for_chunks(out, c, |k, out| {
-        let mut hits = Vec::new();
-        for (j, o) in out.iter_mut().enumerate() {
-            if cancelled(cancel) {
-                return;
-            }
-            let i = k * c + j;
+    in_pieces(
+        out,
+        cancel,
+        |i| batch.ray(i).0.origin,
+        |i, hits| {
             let (ray, len) = batch.ray(i);
-            all_hits(scene, &ray, true, &mut hits);
-            *o = each(i, len, &hits);
-        }
-    });
+            all_hits(scene, &ray, true, hits);
+            each(i, len, hits)
+        },
+    );
 }
 
 /// The number of times each ray crosses the surface in its interval, exact on shared edges and
@@ -108,25 +148,21 @@ pub fn all(
     Ok((ray, t, prim))
 }
 
-/// The direction `contains` casts its rays in.
+/// The axis along which `contains` casts its rays: `+x`, or `−x` from a point nearer the low
+/// x face of the scene's box (`kdray::crossings::contains`).
 pub const CONTAINS_DIRECTION: [f32; 3] = [1.0, 0.0, 0.0];
 
 /// Whether each point (finite, checked) lies inside the closed surface: an odd number of exact
-/// crossings along `+x` ([`CONTAINS_DIRECTION`]). A point on the surface may be either.
+/// crossings along the x axis towards the nearer x face of the scene's box
+/// (`kdray::crossings::contains`). A point on the surface may be either.
 ///
 /// # Errors
 /// The answers' memory cannot be allocated.
 pub fn contains(scene: &Scene, points: &[f32], cancel: &Cancel) -> Result<Vec<bool>, Stop> {
-    let batch = Batch {
-        origins: points,
-        directions: &CONTAINS_DIRECTION,
-        tmin: &[0.0],
-        tmax: &[f32::INFINITY],
-        n: points.len() / 3,
-    };
-    let mut out = stop::filled(batch.n, false, "contains' answers")?;
-    every_hit(scene, &batch, &mut out, cancel, |_, _, hits| {
-        hits.len() % 2 == 1
+    let mut out = stop::filled(points.len() / 3, false, "contains' answers")?;
+    let point = |i: usize| Vec3::from_slice(&points[3 * i..3 * i + 3]);
+    in_pieces(&mut out, cancel, point, |i, hits| {
+        kdray::crossings::contains(scene, point(i), hits)
     });
     Ok(out)
 }
