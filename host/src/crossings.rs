@@ -220,35 +220,74 @@ pub fn contains(scene: &Scene, point: Vec3, hits: &mut Vec<AllHit>) -> bool {
     hits.len() % 2 == 1
 }
 
-/// The order in which to walk `origins` (finite) so that consecutive rays start close together:
-/// their indices sorted by the Morton code (Morton 1966; 10 bits an axis) of each origin in the
-/// origins' bounding box, into `order` (cleared first). Rays that start close together visit
-/// much the same nodes and triangles, so a batch walked in this order finds them in cache: on
-/// 100,000 random points in a 327,680-triangle sphere's box the walks took half the time.
-pub fn coherent_order(origins: &[Vec3], order: &mut Vec<(u32, u32)>) {
-    order.clear();
-    let (lo, hi) = origins.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), &o| (lo.min(o), hi.max(o)),
-    );
-    // Cells of the box, 1024 an axis; a flat box (one value on an axis) puts all in cell 0.
-    let extent = hi - lo;
-    let scale = Vec3::select(extent.cmpgt(Vec3::ZERO), 1023.0 / extent, Vec3::ZERO);
-    order.extend(origins.iter().enumerate().map(|(i, &o)| {
-        let [x, y, z] = ((o - lo) * scale).to_array().map(|c| (c as u32).min(1023));
-        let code = spread(x) | spread(y) << 1 | spread(z) << 2;
-        (code, i as u32)
-    }));
-    order.sort_unstable();
+/// A sort key for rays that puts rays walking much the same nodes and triangles next to each
+/// other, so that a batch walked in key order finds them in cache: a Morton code (Morton 1966)
+/// of the origin's cell in a box (the scene's, say; origins outside it are clamped to it). For
+/// rays of one axis (`contains`' ±x), the cell across the axis comes first, coarse enough that
+/// a batch has a few tens of rays in each, and the coordinate along the axis last: the rays
+/// along one column of the box run one after another, in order along it. On 100,000 random
+/// points in the box of a 327,680-triangle sphere, `contains` walked them in such an order in
+/// two thirds of the time of the input order (both single-threaded).
+#[derive(Clone, Copy, Debug)]
+pub struct CoherentKey {
+    lo: Vec3,
+    scale: Vec3,
+    axis: Option<usize>,
+    /// Bits of a 1024-cell coordinate dropped across `axis`.
+    coarse: u32,
+}
+
+impl CoherentKey {
+    /// Keys of cells of `bounds` for `n` rays along `axis` (`None`: any direction).
+    pub fn new(bounds: [Vec3; 2], axis: Option<usize>, n: usize) -> Self {
+        let [lo, hi] = bounds;
+        let extent = hi - lo;
+        // Cells of 1/1024 of the box an axis; a flat box (or a non-finite one) puts all in 0.
+        let ok = extent.cmpgt(Vec3::ZERO) & extent.cmplt(Vec3::INFINITY);
+        let scale = Vec3::select(ok, 1023.0 / extent, Vec3::ZERO);
+        // About 32 rays a column across the axis: 2^b × 2^b columns with 4^b ≈ n / 32.
+        let b = (n / 32).max(1).ilog2().div_ceil(2);
+        Self {
+            lo,
+            scale,
+            axis,
+            coarse: 10 - b.min(10),
+        }
+    }
+
+    /// The key of a ray starting at `origin`.
+    pub fn key(&self, origin: Vec3) -> u32 {
+        // `as u32` saturates, and sends NaN to 0.
+        let cell = ((origin - self.lo) * self.scale)
+            .to_array()
+            .map(|c| (c as u32).min(1023));
+        match self.axis {
+            None => spread3(cell[0]) | spread3(cell[1]) << 1 | spread3(cell[2]) << 2,
+            Some(a) => {
+                let across = |k: usize| cell[(a + k) % 3] >> self.coarse;
+                let (p, q) = (across(1), across(2));
+                (spread2(p) | spread2(q) << 1) << 10 | cell[a]
+            }
+        }
+    }
 }
 
 /// The 10 low bits of `v` spread out to every third bit (bit `k` to bit `3k`).
-fn spread(v: u32) -> u32 {
+fn spread3(v: u32) -> u32 {
     let mut v = v & 0x3ff;
     v = (v | v << 16) & 0x0300_00ff;
     v = (v | v << 8) & 0x0300_f00f;
     v = (v | v << 4) & 0x030c_30c3;
     (v | v << 2) & 0x0924_9249
+}
+
+/// The 10 low bits of `v` spread out to every other bit (bit `k` to bit `2k`).
+fn spread2(v: u32) -> u32 {
+    let mut v = v & 0x3ff;
+    v = (v | v << 8) & 0x00ff_00ff;
+    v = (v | v << 4) & 0x0f0f_0f0f;
+    v = (v | v << 2) & 0x3333_3333;
+    (v | v << 1) & 0x5555_5555
 }
 
 #[cfg(test)]
@@ -340,28 +379,45 @@ mod tests {
     }
 
     #[test]
-    fn coherent_order_is_a_permutation_that_keeps_neighbours_together() {
-        // A 4 × 4 × 4 lattice of points, shuffled: every index once, and each run of 8 is one
-        // 2 × 2 × 2 block (the Morton order's first level).
-        let mut points: Vec<Vec3> = (0..64)
-            .map(|i| Vec3::new((i % 4) as f32, (i / 4 % 4) as f32, (i / 16) as f32))
+    fn coherent_keys_keep_neighbours_together() {
+        // A 4 × 4 × 4 lattice of points, at the centres of the unit cells of the box [0, 4]³
+        // (cell 1023/8 … 7·1023/8 of 1024 an axis): sorted by key, each run of 8 is one
+        // 2 × 2 × 2 block (the Morton order's first level); along x, each run of 4 is one line
+        // of points along x, in order.
+        let points: Vec<Vec3> = (0..64)
+            .rev()
+            .map(|i| Vec3::new((i % 4) as f32, (i / 4 % 4) as f32, (i / 16) as f32) + 0.5)
             .collect();
-        points.reverse();
-        points.swap(3, 40);
-        let mut order = Vec::new();
-        coherent_order(&points, &mut order);
-        let mut seen: Vec<u32> = order.iter().map(|&(_, i)| i).collect();
-        seen.sort_unstable();
-        assert_eq!(seen, (0..64).collect::<Vec<u32>>());
-        for run in order.chunks(8) {
-            let block = |&(_, i): &(u32, u32)| (points[i as usize] / 2.0).floor();
-            assert!(run.iter().all(|p| block(p) == block(&run[0])), "{run:?}");
+        let sorted = |axis| {
+            let key = CoherentKey::new([Vec3::ZERO, Vec3::splat(4.0)], axis, 1 << 30);
+            let mut order: Vec<(u32, Vec3)> = points.iter().map(|&p| (key.key(p), p)).collect();
+            order.sort_unstable_by_key(|&(k, _)| k);
+            order.into_iter().map(|(_, p)| p).collect::<Vec<Vec3>>()
+        };
+        for run in sorted(None).chunks(8) {
+            let block = |p: Vec3| (p / 2.0).floor();
+            assert!(run.iter().all(|&p| block(p) == block(run[0])), "{run:?}");
         }
-        // One point, and points that all coincide (a flat box on every axis).
-        coherent_order(&[Vec3::ONE], &mut order);
-        assert_eq!(order, [(0, 0)]);
-        coherent_order(&[Vec3::ONE; 3], &mut order);
-        assert_eq!(order.iter().map(|&(_, i)| i).collect::<Vec<_>>(), [0, 1, 2]);
+        for run in sorted(Some(0)).chunks(4) {
+            let xs: Vec<f32> = run.iter().map(|p| p.x).collect();
+            assert_eq!(xs, [0.5, 1.5, 2.5, 3.5], "{run:?}");
+            assert!(
+                run.iter().all(|p| (p.y, p.z) == (run[0].y, run[0].z)),
+                "{run:?}"
+            );
+        }
+        // Outside the box, clamped; a flat box: every key 0.
+        let key = CoherentKey::new([Vec3::ZERO, Vec3::ONE], None, 64);
+        assert_eq!(key.key(Vec3::splat(-5.0)), 0);
+        assert_eq!(key.key(Vec3::splat(9.0)), (1 << 30) - 1);
+        let flat = CoherentKey::new([Vec3::ONE, Vec3::ONE], Some(2), 64);
+        assert_eq!(flat.key(Vec3::new(3.0, -2.0, 0.5)), 0);
+        // 3,200 rays along z: 8 × 8 columns across it (50 rays each), so the points of one
+        // such column run together whatever their z.
+        let key = CoherentKey::new([Vec3::ZERO, Vec3::ONE], Some(2), 3200);
+        let column = |x: f32, y: f32, z: f32| key.key(Vec3::new(x, y, z)) >> 10;
+        assert_eq!(column(0.3, 0.6, 0.0), column(0.26, 0.55, 1.0));
+        assert_ne!(column(0.3, 0.6, 0.0), column(0.24, 0.6, 0.0));
     }
 
     #[test]

@@ -11,8 +11,9 @@ use crate::run::{Cancel, cancelled};
 use crate::stop::{self, Stop};
 use core::sync::atomic::Ordering;
 use glam::Vec3;
-use kdray::crossings::{AllHit, all_hits, coherent_order};
+use kdray::crossings::{AllHit, CoherentKey, all_hits};
 use kdray_core::Scene;
+use rayon::slice::ParallelSliceMut;
 
 /// Rays per piece of work at least, and the most that a call walks on the calling thread: one
 /// ray's every crossing can cost as much as thousands of closest hits (a ray through 2,000
@@ -30,51 +31,70 @@ fn piece(n: usize) -> usize {
         .clamp(FEW, MAX_PIECE)
 }
 
-/// Fills `out` (`n` answers) a piece at a time on the pool, each piece's items in
-/// [`coherent_order`] of their origins (`origin(i)` of item `i`): `answer(i, hits)` for item `i`,
-/// `hits` a buffer it may use. Stops early once `cancel` is set.
-fn in_pieces<T: Send>(
+/// Fills `out` on the pool: `answer(i, hits)` for item `i`, `hits` a buffer it may use. The items
+/// are walked in the order of their [`CoherentKey`] (`key(i)`), sorted once for the whole batch,
+/// in pieces of consecutive keys (a piece of random points sorted alone was hardly more
+/// coherent than none); stops early once `cancel` is set.
+///
+/// # Errors
+/// The memory of the order or of the answers in it cannot be allocated.
+fn in_pieces<T: Default + Send>(
     out: &mut [T],
     cancel: &Cancel,
-    origin: impl Fn(usize) -> Vec3 + Sync,
+    key: impl Fn(usize) -> u32 + Sync,
     answer: impl Fn(usize, &mut Vec<AllHit>) -> T + Sync,
-) {
-    let c = piece(out.len());
-    for_chunks(out, c, |k, out| {
-        let start = k * c;
-        let origins: Vec<Vec3> = (start..start + out.len()).map(&origin).collect();
-        let mut order = Vec::new();
-        coherent_order(&origins, &mut order);
+) -> Result<(), Stop> {
+    let n = out.len();
+    let mut order: Vec<(u32, u32)> = Vec::new();
+    stop::reserve(&mut order, n, "the order of the rays")?;
+    order.extend((0..n).map(|i| (key(i), i as u32)));
+    if n > FEW {
+        order.par_sort_unstable();
+    } else {
+        order.sort_unstable();
+    }
+    let mut sorted: Vec<T> = Vec::new();
+    stop::reserve(&mut sorted, n, "the answers in walk order")?;
+    sorted.resize_with(n, T::default);
+    let c = piece(n);
+    for_chunks(&mut sorted, c, |k, piece| {
         let mut hits = Vec::new();
-        for &(_, j) in &order {
+        for (o, &(_, i)) in piece.iter_mut().zip(&order[k * c..]) {
             if cancelled(cancel) {
                 return;
             }
-            let j = j as usize;
-            out[j] = answer(start + j, &mut hits);
+            *o = answer(i as usize, &mut hits);
         }
     });
+    for (a, &(_, i)) in sorted.iter_mut().zip(&order) {
+        out[i as usize] = core::mem::take(a);
+    }
+    Ok(())
 }
 
 /// Calls `each(i, len, hits)` with every hit of ray `i` of `batch` (checked), exact on shared
 /// edges and vertices (`kdray::crossings`, watertight), `len` the length of its direction.
-fn every_hit<T: Send>(
+///
+/// # Errors
+/// As [`in_pieces`].
+fn every_hit<T: Default + Send>(
     scene: &Scene,
     batch: &Batch,
     out: &mut [T],
     cancel: &Cancel,
     each: impl Fn(usize, f64, &[AllHit]) -> T + Sync,
-) {
+) -> Result<(), Stop> {
+    let key = CoherentKey::new(scene.bounds(), None, batch.n);
     in_pieces(
         out,
         cancel,
-        |i| batch.ray(i).0.origin,
+        |i| key.key(batch.ray(i).0.origin),
         |i, hits| {
             let (ray, len) = batch.ray(i);
             all_hits(scene, &ray, true, hits);
             each(i, len, hits)
         },
-    );
+    )
 }
 
 /// The number of times each ray crosses the surface in its interval, exact on shared edges and
@@ -86,7 +106,7 @@ pub fn count(scene: &Scene, batch: &Batch, cancel: &Cancel) -> Result<Vec<i64>, 
     let mut out = stop::filled(batch.n, 0i64, "count_intersections' answers")?;
     every_hit(scene, batch, &mut out, cancel, |_, _, hits| {
         hits.len() as i64
-    });
+    })?;
     Ok(out)
 }
 
@@ -125,7 +145,7 @@ pub fn all(
             )
         }));
         mine
-    });
+    })?;
     if cancelled(&full) {
         let so_far: u64 = per_ray.iter().map(|h| h.len() as u64).sum();
         return Err(Stop::Memory {
@@ -161,8 +181,12 @@ pub const CONTAINS_DIRECTION: [f32; 3] = [1.0, 0.0, 0.0];
 pub fn contains(scene: &Scene, points: &[f32], cancel: &Cancel) -> Result<Vec<bool>, Stop> {
     let mut out = stop::filled(points.len() / 3, false, "contains' answers")?;
     let point = |i: usize| Vec3::from_slice(&points[3 * i..3 * i + 3]);
-    in_pieces(&mut out, cancel, point, |i, hits| {
-        kdray::crossings::contains(scene, point(i), hits)
-    });
+    let key = CoherentKey::new(scene.bounds(), Some(0), points.len() / 3);
+    in_pieces(
+        &mut out,
+        cancel,
+        |i| key.key(point(i)),
+        |i, hits| kdray::crossings::contains(scene, point(i), hits),
+    )?;
     Ok(out)
 }
