@@ -18,7 +18,7 @@ use rayon::slice::ParallelSliceMut;
 /// Rays per piece of work at least, and the most that a call walks on the calling thread: one
 /// ray's every crossing can cost as much as thousands of closest hits (a ray through 2,000
 /// stacked quads, about 100 µs), so pieces far shorter than the closest hits' (`rays::CHUNK`)
-/// keep every thread busy; a batch of 1,000 such rays on one thread took twice as long.
+/// keep every thread busy (a batch of 1,000 such rays, under `rays::CHUNK`, ran on one thread).
 pub const FEW: usize = 16;
 
 /// Rays per piece for a batch of `n`: about four pieces a thread.
@@ -33,8 +33,8 @@ fn piece(n: usize) -> usize {
 
 /// Fills `out` on the pool: `answer(i, hits)` for item `i`, `hits` a buffer it may use. The items
 /// are walked in the order of their [`CoherentKey`] (`key(i)`), sorted once for the whole batch,
-/// in pieces of consecutive keys (a piece of random points sorted alone was hardly more
-/// coherent than none); stops early once `cancel` is set.
+/// in pieces of consecutive keys (each piece of random points sorted alone, by a 3-D Morton code,
+/// took 1.3–1.4× the time of points given in this order); stops early once `cancel` is set.
 ///
 /// # Errors
 /// The memory of the order or of the answers in it cannot be allocated.
