@@ -31,27 +31,33 @@ fn piece(n: usize) -> usize {
         .clamp(FEW, MAX_PIECE)
 }
 
-/// Fills `out` on the pool: `answer(i, hits)` for item `i`, `hits` a buffer it may use. The items
-/// are walked in the order of their [`CoherentKey`] (`key(i)`), sorted once for the whole batch,
-/// in pieces of consecutive keys (each piece of random points sorted alone, by a 3-D Morton code,
-/// took 1.3–1.4× the time of points given in this order); stops early once `cancel` is set.
+/// Fills `out` on the pool: `answer(i, x, hits)` for item `i`, `x` what `item(i)` gave with its
+/// key, `hits` a buffer it may use. The items are walked in the order of their [`CoherentKey`],
+/// sorted once for the whole batch with `x` carried along (read in input order, not gathered
+/// in walk order), in pieces of consecutive keys (each piece of random points sorted alone, by
+/// a 3-D Morton code, took 1.3–1.4× the time of points given in this order); stops early once
+/// `cancel` is set.
 ///
 /// # Errors
 /// The memory of the order or of the answers in it cannot be allocated.
-fn in_pieces<T: Default + Send>(
+fn in_pieces<T: Default + Send, X: Copy + Send + Sync>(
     out: &mut [T],
     cancel: &Cancel,
-    key: impl Fn(usize) -> u32 + Sync,
-    answer: impl Fn(usize, &mut Vec<AllHit>) -> T + Sync,
+    item: impl Fn(usize) -> (u32, X) + Sync,
+    answer: impl Fn(usize, X, &mut Vec<AllHit>) -> T + Sync,
 ) -> Result<(), Stop> {
     let n = out.len();
-    let mut order: Vec<(u32, u32)> = Vec::new();
+    let mut order: Vec<(u32, u32, X)> = Vec::new();
     stop::reserve(&mut order, n, "the order of the rays")?;
-    order.extend((0..n).map(|i| (key(i), i as u32)));
+    order.extend((0..n).map(|i| {
+        let (key, x) = item(i);
+        (key, i as u32, x)
+    }));
+    let by_key = |&(key, i, _): &(u32, u32, X)| (key, i);
     if n > FEW {
-        order.par_sort_unstable();
+        order.par_sort_unstable_by_key(by_key);
     } else {
-        order.sort_unstable();
+        order.sort_unstable_by_key(by_key);
     }
     let mut sorted: Vec<T> = Vec::new();
     stop::reserve(&mut sorted, n, "the answers in walk order")?;
@@ -59,14 +65,14 @@ fn in_pieces<T: Default + Send>(
     let c = piece(n);
     for_chunks(&mut sorted, c, |k, piece| {
         let mut hits = Vec::new();
-        for (o, &(_, i)) in piece.iter_mut().zip(&order[k * c..]) {
+        for (o, &(_, i, x)) in piece.iter_mut().zip(&order[k * c..]) {
             if cancelled(cancel) {
                 return;
             }
-            *o = answer(i as usize, &mut hits);
+            *o = answer(i as usize, x, &mut hits);
         }
     });
-    for (a, &(_, i)) in sorted.iter_mut().zip(&order) {
+    for (a, &(_, i, _)) in sorted.iter_mut().zip(&order) {
         out[i as usize] = core::mem::take(a);
     }
     Ok(())
@@ -88,9 +94,11 @@ fn every_hit<T: Default + Send>(
     in_pieces(
         out,
         cancel,
-        |i| key.key(batch.ray(i).0.origin),
-        |i, hits| {
+        |i| {
             let (ray, len) = batch.ray(i);
+            (key.key(ray.origin), (ray, len))
+        },
+        |i, (ray, len), hits| {
             all_hits(scene, &ray, true, hits);
             each(i, len, hits)
         },
@@ -185,8 +193,8 @@ pub fn contains(scene: &Scene, points: &[f32], cancel: &Cancel) -> Result<Vec<bo
     in_pieces(
         &mut out,
         cancel,
-        |i| key.key(point(i)),
-        |i, hits| kdray::crossings::contains(scene, point(i), hits),
+        |i| (key.key(point(i)), point(i)),
+        |_, p, hits| kdray::crossings::contains(scene, p, hits),
     )?;
     Ok(out)
 }
