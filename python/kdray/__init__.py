@@ -32,7 +32,8 @@ from . import _kdray, _pickle
 
 __all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS", "__version__"]
 
-#: The direction in which :meth:`Scene.contains` casts its rays.
+#: The axis along which :meth:`Scene.contains` casts its rays: ``+x``, or ``−x`` from a point
+#: nearer the low x face of the scene's box (the parity is the same either way).
 CONTAINS_DIRECTION = tuple(float(x) for x in _kdray.CONTAINS_DIRECTION)
 
 #: The instruction set the extension's SIMD was compiled for, as ``kdray --version`` names it
@@ -637,9 +638,10 @@ class Scene:
     def contains(self, points: Any, *, threads: Optional[int] = None) -> np.ndarray:
         """Whether each point lies inside the mesh, which should be closed (every edge shared by
         two triangles, as in a watertight trimesh): an odd number of exact crossings along
-        :data:`CONTAINS_DIRECTION` (``+x``). Exact also where that ray passes through edges and
-        vertices; a point on the surface may be either. ``points``: ``(..., 3)``; returns a bool
-        array of the leading shape."""
+        the x axis (:data:`CONTAINS_DIRECTION`), towards the nearer x face of the scene's box
+        (``+x`` or ``−x``: the same parity, half the walk). Exact also where that ray passes
+        through edges and vertices; a point on the surface may be either. ``points``:
+        ``(..., 3)``; returns a bool array of the leading shape."""
         p, lead = _points(points, "points", self.origin)
         out = self._tree.contains(_aligned(p.reshape(-1, 3)), _threads(threads))
         return out.reshape(lead)

@@ -116,19 +116,21 @@ impl RayArgs<'_> {
     }
 }
 
-/// Checks `batch`'s values, then runs `f` without the GIL: on this thread for a few rays, else
-/// on the pool of `threads`, stopped by Ctrl-C (`run`).
+/// Checks `batch`'s values, then runs `f` without the GIL: on this thread for at most `few` rays
+/// (`rays::CHUNK`, or `crossings::FEW` for every crossing, whose rays cost more), else on the pool
+/// of `threads`, stopped by Ctrl-C (`run`).
 fn traced<T: Send>(
     py: Python<'_>,
     threads: Option<usize>,
     batch: &Batch,
+    few: usize,
     f: impl FnOnce(&run::Cancel) -> Result<T, Stop> + Send,
 ) -> PyResult<T> {
     let work = |cancel: &run::Cancel| -> Result<T, Stop> {
         batch.check_values()?;
         f(cancel)
     };
-    if batch.n <= rays::CHUNK {
+    if batch.n <= few {
         // A few rays: on this thread, which is faster than handing them to a pool.
         return Ok(py.detach(|| work(&run::Cancel::new(false)))?);
     }
@@ -366,7 +368,7 @@ impl Tree {
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let batch = rays.batch()?;
         let scene = self.owned.scene();
-        let out = traced(py, threads, &batch, |cancel| {
+        let out = traced(py, threads, &batch, rays::CHUNK, |cancel| {
             rays::occluded(scene, &batch, mode(watertight), cancel)
         })?;
         Ok(PyArray1::from_vec(py, out))
@@ -382,7 +384,7 @@ impl Tree {
     ) -> PyResult<Bound<'py, PyArray1<i64>>> {
         let batch = rays.batch()?;
         let scene = self.owned.scene();
-        let out = traced(py, threads, &batch, |cancel| {
+        let out = traced(py, threads, &batch, crossings::FEW, |cancel| {
             crossings::count(scene, &batch, cancel)
         })?;
         Ok(PyArray1::from_vec(py, out))
@@ -403,7 +405,7 @@ impl Tree {
     )> {
         let batch = rays.batch()?;
         let scene = self.owned.scene();
-        let (ray, t, prim) = traced(py, threads, &batch, |cancel| {
+        let (ray, t, prim) = traced(py, threads, &batch, crossings::FEW, |cancel| {
             crossings::all(scene, &batch, cancel)
         })?;
         Ok((

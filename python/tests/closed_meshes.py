@@ -1,6 +1,7 @@
-"""Closed meshes with integer vertices, and points whose `+x` rays (the direction
-``kdray.Scene.contains`` casts) pass exactly through their vertices and edges, with the true
-answer for each point. Used by tests/test_contains.py and bench/contains_peers.py.
+"""Closed meshes with integer vertices, and points whose `+x` rays (the axis
+``kdray.Scene.contains`` casts along: ``+x``, or ``−x`` on the same line from points nearer the
+box's low x face) pass exactly through their vertices and edges, with the true answer for each
+point. Used by tests/test_contains.py and bench/contains_peers.py.
 
 Integer vertices make the points exact: a point ``v − (s, 0, 0)`` has ``v``'s y and z, so its
 ray meets ``v``; a point whose (y, z) is the midpoint of an edge's (y, z) — a half-integer, exact
