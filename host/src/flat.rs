@@ -229,15 +229,18 @@ pub fn serialize_as(
         words[header::BOUNDS + k] = v.to_bits();
     }
     words[header::BUILD_MS] = build_ms.to_bits();
-    format::seal(&mut words);
+    // With a wide section the words are sealed once it is appended (opening them to collapse the
+    // tree reads no checksum).
     if layout == Layout::Wide {
         append_wide(&mut words)?;
+    } else {
+        format::seal(&mut words);
     }
     Ok(words)
 }
 
-/// Appends the wide section to the sealed scene `words` (collapsed from the scene they hold,
-/// [`crate::wide`]) and seals them again.
+/// Appends the wide section to the scene `words` (collapsed from the scene they hold,
+/// [`crate::wide`]) and seals them.
 fn append_wide(words: &mut Vec<u32>) -> core::result::Result<(), String> {
     // The words were serialized just above: opened without validating them again (the tests
     // validate every tree the builder makes, wide sections included).

@@ -179,12 +179,16 @@ pub fn walk_counted<C: Contents, Q: Query>(
                 }
                 // The entered slots front to back; the nearest next, the others pushed farthest
                 // first so that they pop in order. At most 7 per level: the push cannot fail.
+                // Positions past the node's count (bits 24..28) read slot 0 and are skipped: if
+                // counted, a hit slot 0 was pushed again for each, and its subtree walked as
+                // many times more.
+                let count = (order >> 24) as usize;
                 let mut hit = [0usize; WIDTH];
                 let mut n = 0;
                 for k in 0..WIDTH {
                     let slot = (order >> (3 * k) & 7) as usize;
                     hit[n] = slot;
-                    n += (mask >> slot & 1) as usize;
+                    n += (mask >> slot & 1) as usize & usize::from(k < count);
                 }
                 for &slot in hit[1..n].iter().rev() {
                     let _ = stack.push((node[REFS + slot], entry[slot]));
