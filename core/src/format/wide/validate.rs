@@ -9,10 +9,8 @@
 //!   fixed stack holds the pending children of that many levels). Each node's eight order words
 //!   carry one count `c ≤ 8`; their first `c` slots are a permutation of slots `0..c` and the rest
 //!   are 0; slots past `c` hold [`EMPTY_BOX`] and reference 0, as the writer leaves them. The walk
-//!   takes the entered slots in the order word's order, so a slot missing from it would never be
-//!   entered, and one named twice would be entered twice per visit (the positions past `c` name
-//!   slot 0 again, as the writer's do: a path may go from such a node's slot 0 into a wide node
-//!   at most [`MAX_REPEATS`] times, as the writer's cut does, so those repeats stay bounded).
+//!   takes the entered slots among the first `c` positions of the order word, so a slot missing
+//!   from them would never be entered, and one named twice would be entered twice per visit.
 //! - **Leaves.** The leaf references, in that slot order, are exactly the node section's
 //!   non-empty leaves in pre-order, each once: every primitive a leaf holds is reachable, and
 //!   each leaf's primitives are checked once, which keeps the pass linear.
@@ -136,19 +134,8 @@ fn group_inside(g: &Group, cell: Bounds, b: Bounds, empty: bool) -> bool {
     (0..group::WIDTH).all(|j| thresholds[j] == f32::INFINITY || !meets[j] || !empty && inside[j])
 }
 
-/// A wide node being checked: its index, the next slot to check, its count, its depth and how
-/// many of the edges above it repeat (see [`MAX_REPEATS`]).
-type Frame = (u32, usize, usize, usize, usize);
-
-/// How many edges a path from the root may take from slot 0 of a node of two to seven children
-/// into a wide node. The walk reads all eight positions of an order word, and those
-/// past the count name slot 0 (as the writer leaves them), so when such a node's slot 0 and
-/// another are entered, slot 0's subtree is walked up to `9 − count` times; along a path of
-/// such edges the repeats multiply. The writer's cut has fewer than eight children only when
-/// every child left interior is [`super::MAX_OPEN_DEPTH`] levels down, so its paths take at most
-/// `MAX_DEPTH / MAX_OPEN_DEPTH` such edges, which bounds a walk to `7⁴` times the section; a
-/// crafted cut could otherwise chain 64 of them and make one ray's walk endless.
-pub const MAX_REPEATS: usize = MAX_DEPTH / super::MAX_OPEN_DEPTH;
+/// A wide node being checked: its index, the next slot to check, its count and its depth.
+type Frame = (u32, usize, usize, usize);
 
 /// Checks `scene`'s wide section against its node section (already validated), see the module
 /// doc.
@@ -172,26 +159,25 @@ pub fn validate(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
     };
     let mut frames: heapless::Vec<Frame, MAX_WIDE_DEPTH> = heapless::Vec::new();
     // Enters wide node `w`, whose parent slot's box is `parent`: its shape and its boxes.
-    let enter =
-        |w: u32, parent: Bounds, depth: usize, repeats: usize| -> Result<Frame, FormatError> {
-            let stored = &wide[w as usize];
-            let count = shape(stored).ok_or(FormatError::BadWideNode { node: w })?;
-            for k in 0..count {
-                let b = slot_box(stored, k);
-                let (lo, hi) = (b[0], b[1]);
-                let empty = !lo.cmple(hi).all();
-                if !(empty || contains(parent, b) && lo.is_finite() && hi.is_finite()) {
-                    return Err(FormatError::BadWideBox { node: w });
-                }
+    let enter = |w: u32, parent: Bounds, depth: usize| -> Result<Frame, FormatError> {
+        let stored = &wide[w as usize];
+        let count = shape(stored).ok_or(FormatError::BadWideNode { node: w })?;
+        for k in 0..count {
+            let b = slot_box(stored, k);
+            let (lo, hi) = (b[0], b[1]);
+            let empty = !lo.cmple(hi).all();
+            if !(empty || contains(parent, b) && lo.is_finite() && hi.is_finite()) {
+                return Err(FormatError::BadWideBox { node: w });
             }
-            Ok((w, 0, count, depth, repeats))
-        };
+        }
+        Ok((w, 0, count, depth))
+    };
     frames
-        .push(enter(0, scene.bounds(), 1, 0)?)
+        .push(enter(0, scene.bounds(), 1)?)
         .map_err(|_| FormatError::BadDepth)?;
     let mut next = 1u32;
     while let Some(top) = frames.last_mut() {
-        let (w, k, count, depth, repeats) = *top;
+        let (w, k, count, depth) = *top;
         if k == count {
             frames.pop();
             continue;
@@ -232,11 +218,7 @@ pub fn validate(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
                 return Err(FormatError::BadDepth);
             }
             next += 1;
-            let repeats = repeats + usize::from(k == 0 && (2..WIDTH).contains(&count));
-            if repeats > MAX_REPEATS {
-                return Err(FormatError::BadWideNode { node: w });
-            }
-            let frame = enter(r, if empty { EMPTY_BOX } else { b }, depth + 1, repeats)?;
+            let frame = enter(r, if empty { EMPTY_BOX } else { b }, depth + 1)?;
             frames.push(frame).map_err(|_| FormatError::BadDepth)?;
         }
     }
