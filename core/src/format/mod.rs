@@ -392,13 +392,33 @@ impl<'a> Scene<'a> {
     /// words (vertices, threshold) are the group's rows, so this is a 10×4 transpose.
     #[inline(always)]
     pub fn gather_group(&self, ids: &[u32]) -> Group {
-        let mut g = group::PADDING;
-        for (j, &id) in ids.iter().take(group::WIDTH).enumerate() {
-            let s = &self.tris[id as usize];
-            for (m, x) in s.iter().enumerate() {
-                g[group::WIDTH * m + j] = x.to_bits();
-            }
-            g[group::slot::IDS + j] = id;
+        use crate::simd::f32x4;
+        /// A padding lane's row: vertices 0, threshold `+inf`.
+        const PAD: [f32; stride::TRIANGLE] = {
+            let mut r = [0.0; stride::TRIANGLE];
+            r[stride::TRIANGLE - 1] = f32::INFINITY;
+            r
+        };
+        let row = |j: usize| ids.get(j).map_or(&PAD, |&id| &self.tris[id as usize]);
+        let rows = [row(0), row(1), row(2), row(3)];
+        // Columns 0..4, 4..8 and 8..10 of the four rows, each chunk transposed in registers:
+        // vector m holds word m of the four rows, the group's words 4m..4m+4.
+        let chunk = |at: usize| {
+            f32x4::transpose(rows.map(|r| {
+                let mut c = [0.0; 4];
+                let n = (stride::TRIANGLE - at).min(4);
+                c[..n].copy_from_slice(&r[at..at + n]);
+                f32x4::new(c)
+            }))
+        };
+        let mut g = [0u32; group::GROUP_WORDS];
+        let words = chunk(0).into_iter().chain(chunk(4)).chain(chunk(8));
+        for (m, v) in words.take(stride::TRIANGLE).enumerate() {
+            let lanes = v.to_array().map(f32::to_bits);
+            g[group::WIDTH * m..group::WIDTH * (m + 1)].copy_from_slice(&lanes);
+        }
+        for j in 0..group::WIDTH {
+            g[group::slot::IDS + j] = ids.get(j).copied().unwrap_or(group::PAD_ID);
         }
         g
     }
