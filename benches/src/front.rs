@@ -43,7 +43,6 @@ pub fn settings() -> Vec<Setting> {
     vec![
         lists("lists-fast", fast),
         groups("groups-fast", fast),
-        lists("lists-fast-budget1", budget(1.0)),
         lists("lists-fast-budget4", budget(4.0)),
         lists("lists-fast-budget32", budget(REFERENCE_BUDGET)),
         lists("lists-fast-deep", deep),

@@ -2,7 +2,7 @@
 for kdray's default `Scene` against Open3D's `RaycastingScene`, N = 1, 1,000, 100,000 and
 1,000,000 (the package README's end-to-end table).
 
-    python bench/first_answer.py data/dragon.tri data/bunny.tri --rounds 5
+    python bench/first_answer.py data/dragon.tri icosphere --rounds 5
 
 Rays: origins uniform in the mesh's box, directions uniform on the sphere (seeded), the same
 float32 arrays for both. Each round times, for every N, one whole kdray run (`Scene(v, f)` and
@@ -34,6 +34,14 @@ def read_tri(path):
     return np.ascontiguousarray(verts, np.float32), np.ascontiguousarray(faces.reshape(n, 3), np.int32)
 
 
+def icosphere(subdivisions=7):
+    """trimesh's closed icosphere (subdivision 7: 327,680 triangles), as bench/contains_speed.py."""
+    import trimesh
+
+    m = trimesh.creation.icosphere(subdivisions=subdivisions)
+    return np.ascontiguousarray(m.vertices, np.float32), np.ascontiguousarray(m.faces, np.int32)
+
+
 def random_rays(verts, n, seed=7):
     rng = np.random.default_rng(seed)
     lo, hi = verts.min(axis=0), verts.max(axis=0)
@@ -45,11 +53,12 @@ def random_rays(verts, n, seed=7):
     return o, d
 
 
-def run_kdray(verts, faces, o, d):
+def run_kdray(verts, faces, o, d, options):
     t = time.perf_counter()
-    scene = kdray.Scene(verts, faces)
+    scene = kdray.Scene(verts, faces, **options)
+    built = time.perf_counter() - t
     hits = scene.intersect(o, d)
-    return time.perf_counter() - t, np.asarray(hits.prim)
+    return time.perf_counter() - t, np.asarray(hits.prim), built
 
 
 def run_open3d(o3d, verts, faces, o, d):
@@ -63,25 +72,30 @@ def run_open3d(o3d, verts, faces, o, d):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("meshes", nargs="+", help=".tri files")
+    ap.add_argument("meshes", nargs="+", help=".tri files, or 'icosphere' (trimesh's, 327,680 triangles)")
     ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--leaves", choices=("list", "groups"), help="kdray's leaves (default: its default)")
+    ap.add_argument("--quality", choices=("fast", "high"), help="kdray's quality (default: its default)")
+    ap.add_argument("--ns", default=",".join(map(str, NS)), help="the counts of rays, comma-separated")
     args = ap.parse_args()
+    options = {k: v for k, v in (("leaves", args.leaves), ("quality", args.quality)) if v}
     import open3d as o3d
 
-    print(f"kdray {kdray.__version__}, Open3D {o3d.__version__}")
-    print("| mesh | N rays | kdray ms | Open3D ms | kdray ÷ Open3D | same triangle |")
+    print(f"kdray {kdray.__version__} {options or '(defaults)'}, Open3D {o3d.__version__}")
+    print("| mesh | N rays | kdray ms (of which Scene) | Open3D ms | kdray ÷ Open3D | same triangle |")
     print("|---|---:|---:|---:|---:|---:|")
     for path in args.meshes:
-        verts, faces = read_tri(path)
-        for n in NS:
+        verts, faces = icosphere() if path == "icosphere" else read_tri(path)
+        for n in map(int, args.ns.split(",")):
             o, d = random_rays(verts, n)
-            times = {"kdray": [], "open3d": []}
+            times = {"kdray": [], "open3d": [], "scene": []}
             answers = {}
             for r in range(args.rounds):
                 order = ["kdray", "open3d"] if r % 2 == 0 else ["open3d", "kdray"]
                 for who in order:
                     if who == "kdray":
-                        s, answers[who] = run_kdray(verts, faces, o, d)
+                        s, answers[who], built = run_kdray(verts, faces, o, d, options)
+                        times["scene"].append(built * 1e3)
                     else:
                         s, answers[who] = run_open3d(o3d, verts, faces, o, d)
                     times[who].append(s * 1e3)
@@ -90,7 +104,8 @@ def main():
             a = answers["kdray"].astype(np.uint32)
             b = answers["open3d"].astype(np.uint32)
             same = float(np.mean((a == b) | ((a == miss) & (b == miss))))
-            print(f"| {path.split('/')[-1]} ({len(faces):,} tris) | {n:,} | {k:.1f} | {p:.1f} | "
+            sc = statistics.median(times["scene"])
+            print(f"| {path.split('/')[-1]} ({len(faces):,} tris) | {n:,} | {k:.1f} ({sc:.1f}) | {p:.1f} | "
                   f"{k / p:.2f} | {100 * same:.2f} % |", flush=True)
 
 

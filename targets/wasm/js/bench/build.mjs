@@ -12,24 +12,15 @@
 // bunny first (V8 tiers WebAssembly and JavaScript up while they run).
 import { performance } from 'node:perf_hooks';
 import os from 'node:os';
-import * as THREE from 'three';
 import { MeshBVH, SAH, CENTER } from 'three-mesh-bvh';
 import { Scene, moduleVariant, init } from '../src/index.js';
-import { meshByName } from './meshes.mjs';
+import { geometryOf, meshByName } from './meshes.mjs';
 
 const args = process.argv.slice(2);
 const opt = (name, dflt) => { const i = args.indexOf(`--${name}`); return i < 0 ? dflt : args[i + 1]; };
 const rounds = +opt('rounds', 5);
 const meshNames = opt('meshes', 'bunny,torusknot,dragon').split(',');
 const median = (xs) => { const s = [...xs].sort((a, b) => a - b); return s.length % 2 ? s[(s.length - 1) / 2] : (s[s.length / 2 - 1] + s[s.length / 2]) / 2; };
-
-// A geometry of its own for each BVH: three-mesh-bvh reorders the index buffer in place.
-function geometryOf({ positions, indices }) {
-  const g = new THREE.BufferGeometry();
-  g.setAttribute('position', new THREE.BufferAttribute(positions.slice(), 3));
-  g.setIndex(new THREE.BufferAttribute(indices.slice(), 1));
-  return g;
-}
 
 const variants = {
   'kdray fast': async (m) => (await Scene.build(m.positions, m.indices, { quality: 'fast' })).dispose(),

@@ -15,3 +15,11 @@ export function meshByName(name) {
   if (name === 'torusknot') return torusKnot();
   return fetched(name);
 }
+
+// A geometry of its own for each BVH: three-mesh-bvh reorders the index buffer in place.
+export function geometryOf({ positions, indices }) {
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(positions.slice(), 3));
+  g.setIndex(new THREE.BufferAttribute(indices.slice(), 1));
+  return g;
+}
