@@ -50,18 +50,6 @@ pub const fn groups_for(n: u32) -> u32 {
 /// One lane's contents: triangle id, vertices and threshold, as the triangles section has them.
 pub type Lane = (u32, [Vec3; 3], f32);
 
-/// A group of four padding lanes (what [`pack`] makes of no lanes).
-pub const PADDING: Group = {
-    let mut g = [0u32; GROUP_WORDS];
-    let mut j = 0;
-    while j < WIDTH {
-        g[slot::MIN_DET2 + j] = f32::INFINITY.to_bits();
-        g[slot::IDS + j] = PAD_ID;
-        j += 1;
-    }
-    g
-};
-
 /// The group holding `lanes` (at most [`WIDTH`]; the rest are padding).
 pub fn pack(lanes: &[Lane]) -> Group {
     let mut g = [0u32; GROUP_WORDS];

@@ -298,7 +298,6 @@ fn a_gathered_group_is_the_packed_group_of_its_triangles() {
             .collect();
         assert_eq!(scene.gather_group(ids), group::pack(&lanes), "ids {ids:?}");
     }
-    assert_eq!(group::PADDING, group::pack(&[]));
 }
 
 /// Only kernels for triangles-only contents read groups (`Contents::GROUPS`): a target that names

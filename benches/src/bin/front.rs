@@ -1,28 +1,34 @@
-//! `front MESH... [--size W] [--random N] [--repeat R] [--only NAME,...] [--tsv FILE] [--png FILE]`:
-//! the builder's front — build time against trace cost, with the tree's bytes — for the settings
-//! that matter (docs/BUILD.md, "The front"):
+//! `front`: the builder's front — build cost against trace cost, with the tree's bytes — for the
+//! settings of `kdray_benches::front` (docs/BUILD.md, "The front"). Four modes:
 //!
 //! ```sh
-//! cargo run --release -p kdray-benches --bin front -- data/bunny.tri data/dragon.tri \
-//!     --tsv docs/front.tsv --png docs/front.png
+//! front MESH... [--size W] [--random N] [--repeat R] [--only NAME,...] [--tsv FILE]   # timed
+//! front MESH... --count [--size W] [--random N] [--only NAME]   # for callgrind: scripts/front.sh
+//! front --list [--only NAME,...]                                 # the settings' names
+//! front --plot TABLE --png FILE                                  # plot scripts/front.sh's table
 //! ```
 //!
-//! Per mesh and setting: the build as the packages run it (build, serialize with the wide
+//! Timed, per mesh and setting: the build as the packages run it (build, serialize with the wide
 //! section and groups or lists, open with `Scene::from_built_words`) on one thread and on all of
 //! rayon's, the bytes a triangle, and the single-thread cost of three ray sets through
 //! `Scene::intersect` (the wide walk the packages use for rays that do not form packets): the
 //! framing camera's primary rays (`--size`², default 512), one cosine bounce from each of their
 //! hits, and `--random` rays (default 200,000) with origins uniform in the mesh's box and
 //! directions uniform on the sphere — the rays of a picking or analysis user. Times are the
-//! median of `--repeat` runs (default 3), the settings taking turns in each round. Every
-//! setting's hits are compared with the first's (same `t` bits; a triangle may differ only in a
-//! tie): a tree that answers differently is reported, and the run exits 1.
+//! median of `--repeat` runs (default 3), the settings taking turns in each round; with
+//! `FRONT_PHASES` set, each build's tree, serialization and opening times go to standard error.
+//! Every setting's hits are compared with the first's (same `t` bits; a triangle may differ only
+//! in a tie): a tree that answers differently is reported, and the run exits 1.
+//!
+//! `scripts/front.sh` runs `--count` under callgrind for each setting and mesh (instructions do
+//! not depend on the machine's load), writes docs/front.tsv and plots it with `--plot`.
 //!
 //! Exit codes: 0 done, 1 a mesh that cannot be read or a setting that answers differently,
 //! 2 a usage error.
 
 use glam::Vec3;
 use kdray::build::{BuildParams, build};
+use kdray::converge::median;
 use kdray::flat::{Layout, serialize_as};
 use kdray::geometry::Geometry;
 use kdray::plot::{Panel, Point, scatter_log_y};
@@ -34,8 +40,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-const USAGE: &str = "usage: front MESH... [--size W] [--random N] [--repeat R] [--only NAME,...] \
-                     [--tsv FILE] [--png FILE]";
+const USAGE: &str = "usage: front MESH... [--count] [--size W] [--random N] [--repeat R] \
+                     [--only NAME,...] [--tsv FILE] | front --list | front --plot TABLE --png FILE";
 
 struct Args {
     meshes: Vec<PathBuf>,
@@ -47,7 +53,7 @@ struct Args {
     png: Option<PathBuf>,
     /// Print the chosen settings' names and stop.
     list: bool,
-    /// Plot a table `scripts/front.sh` wrote (with `--png`) and stop.
+    /// Plot a table `scripts/front.sh` wrote into `png` and stop.
     plot: Option<PathBuf>,
     /// Build each setting once and trace each set once, untimed, for callgrind
     /// (`scripts/front.sh`).
@@ -91,6 +97,9 @@ fn parse(mut args: impl Iterator<Item = String>) -> Result<Args, String> {
             s if s.starts_with('-') => return Err(format!("unknown option '{s}'")),
             _ => a.meshes.push(PathBuf::from(s)),
         }
+    }
+    if a.png.is_some() != a.plot.is_some() {
+        return Err("--plot and --png go together".into());
     }
     if a.meshes.is_empty() && !a.list && a.plot.is_none() {
         return Err("no mesh given".into());
@@ -154,11 +163,6 @@ fn trace(scene: &Scene, rays: &[Ray], hits: &mut [Hit]) -> f64 {
         *h = scene.intersect(r);
     }
     start.elapsed().as_secs_f64() * 1e9 / rays.len().max(1) as f64
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// The three ray sets (primary, diffuse, random) for `scene`, the first setting's tree.
@@ -284,7 +288,7 @@ fn measure(mesh: &Path, a: &Args, chosen: &[Setting]) -> Result<Vec<Row>, String
         .zip(times)
         .zip(bytes)
         .map(|((s, t), bytes)| {
-            let [b1, b2, p, d, r] = t.map(median);
+            let [b1, b2, p, d, r] = t.map(|v| median(&v));
             Row {
                 setting: s.name,
                 build_one: b1,
@@ -329,11 +333,9 @@ fn run(a: &Args) -> Result<(), String> {
         }
         return Ok(());
     }
-    let mut panels = Vec::new();
     for mesh in &a.meshes {
         let rows = measure(mesh, a, &chosen)?;
         let name = mesh.file_stem().map_or("?".into(), |s| s.to_string_lossy());
-        let mut points = Vec::new();
         for r in &rows {
             let line = format!(
                 "{name}\t{}\t{:.1}\t{:.1}\t{}\t{:.1}\t{:.1}\t{:.1}",
@@ -342,31 +344,10 @@ fn run(a: &Args) -> Result<(), String> {
             println!("{line}");
             tsv.push_str(&line);
             tsv.push('\n');
-            points.push(Point {
-                x: r.build_one,
-                y: r.ns[2],
-                label: format!("{} ({} B)", r.setting, r.bytes),
-            });
         }
-        panels.push(Panel {
-            title: format!("{name}"),
-            series: vec![("settings (bytes a triangle)".into(), points)],
-        });
     }
     if let Some(p) = &a.tsv {
         std::fs::write(p, tsv).map_err(|e| format!("{}: {e}", p.display()))?;
-    }
-    if let Some(p) = &a.png {
-        let size = (560 * panels.len() as u32, 520);
-        scatter_log_y(
-            p,
-            "Build (one thread) against the cost of a random ray",
-            ("build ms, one thread", "ns a random ray, one thread"),
-            &panels,
-            1.0,
-            size,
-        )
-        .map_err(|e| e.to_string())?;
     }
     Ok(())
 }
