@@ -99,6 +99,7 @@ pub mod f64ref;
 pub mod flat;
 #[cfg(feature = "cli")]
 pub mod image;
+pub mod par;
 #[cfg(feature = "cli")]
 pub mod plot;
 #[cfg(feature = "cli")]

@@ -3,29 +3,105 @@
 //! cut of its binary subtree (`kdray_core::format::wide::frontier`; validation checks what the
 //! walk's answers need, not the cut itself, which `tests/tests/wide_cut.rs` checks), and each child's box is computed bottom up: a leaf's, the union of its
 //! primitives' boxes clipped to its cell; a wide node's, the union of its own boxes. Wide nodes are
-//! numbered in the order a depth-first walk in slot order first enters them.
+//! numbered in the order a depth-first walk in slot order first enters them. On rayon's pool the
+//! subtrees below the top [`PARALLEL_LEVELS`] wide levels are collapsed at once and appended in
+//! that order, renumbered: the nodes are the same.
 
+use crate::par;
 use kdray_core::Scene;
 use kdray_core::format::wide::{
-    Bounds, EMPTY_BOX, LEAF_REF, REFS, WideNode, frontier, intersection, prim_box, set_slot_box,
-    skeleton,
+    Bounds, EMPTY_BOX, LEAF_REF, REFS, WIDTH, WideNode, frontier, intersection, prim_box,
+    set_slot_box, skeleton,
 };
 
-/// The wide nodes of `scene`'s tree (a scene validated without them).
+/// Wide levels whose children a parallel collapse takes on apart (up to 8² subtrees).
+const PARALLEL_LEVELS: u32 = 2;
+
+/// The wide nodes of `scene`'s tree (a scene validated without them), collapsed on rayon's pool
+/// when `parallel`; the nodes are the same either way.
 ///
 /// # Errors
 /// More wide nodes than a reference can number (2³¹).
-pub fn to_wide(scene: &Scene) -> Result<Vec<WideNode>, String> {
-    let mut out = Vec::with_capacity(scene.node_count() as usize / 8 + 1);
-    emit(scene, 0, scene.bounds(), &mut out)?;
-    Ok(out)
+pub fn to_wide(scene: &Scene, parallel: bool) -> Result<Vec<WideNode>, String> {
+    let levels = if parallel { PARALLEL_LEVELS } else { 0 };
+    Ok(subtree(scene, 0, scene.bounds(), levels)?.0)
+}
+
+fn too_large() -> String {
+    "tree too large for the wide layout (2^31 wide nodes)".to_string()
+}
+
+/// The wide nodes of the subtree standing for binary node `b` with cell `cell`, numbered from
+/// its root, and the union of the root's boxes; the wide children of the top `levels` levels
+/// are collapsed at once on the pool.
+fn subtree(
+    scene: &Scene,
+    b: u32,
+    cell: Bounds,
+    levels: u32,
+) -> Result<(Vec<WideNode>, Bounds), String> {
+    if levels == 0 {
+        let mut out = Vec::new();
+        let all = emit(scene, b, cell, &mut out)?;
+        return Ok((out, all));
+    }
+    let f = frontier(|i| scene.node(i), b, cell);
+    let children = par::map_each(true, f.count, |k| {
+        (!f.leaves[k])
+            .then(|| subtree(scene, f.nodes[k], f.cells[k], levels - 1))
+            .transpose()
+    });
+    let mut out = vec![skeleton(&f)];
+    let mut all = EMPTY_BOX;
+    for (k, child) in children.into_iter().enumerate() {
+        let (reference, bounds) = match child? {
+            None => (
+                LEAF_REF | f.nodes[k],
+                leaf_box(scene, f.nodes[k], f.cells[k]),
+            ),
+            Some((nodes, bounds)) => {
+                let at = out.len();
+                if at + nodes.len() > LEAF_REF as usize {
+                    return Err(too_large());
+                }
+                out.extend(nodes.iter().map(|n| moved(n, at as u32)));
+                (at as u32, bounds)
+            }
+        };
+        out[0][REFS + k] = reference;
+        set_slot_box(&mut out[0], k, bounds);
+        all = union(all, bounds);
+    }
+    Ok((out, all))
+}
+
+/// `node` with its references to wide nodes moved by `at` (leaf references and unused slots,
+/// 0, unchanged: a subtree's own root is never referenced within it).
+fn moved(node: &WideNode, at: u32) -> WideNode {
+    let mut n = *node;
+    for r in &mut n[REFS..REFS + WIDTH] {
+        if *r != 0 && *r & LEAF_REF == 0 {
+            *r += at;
+        }
+    }
+    n
+}
+
+/// The box of leaf `leaf` (a node index) in cell `cell`: its primitives' boxes clipped to the
+/// cell, united.
+fn leaf_box(scene: &Scene, leaf: u32, cell: Bounds) -> Bounds {
+    scene
+        .leaf_prims(&scene.node(leaf))
+        .ids()
+        .filter_map(|p| prim_box(scene, p).and_then(|b| intersection(b, cell)))
+        .fold(EMPTY_BOX, union)
 }
 
 /// Appends the wide node standing for binary node `b` with cell `cell`, then its wide children
 /// depth first; returns the union of its boxes.
 fn emit(scene: &Scene, b: u32, cell: Bounds, out: &mut Vec<WideNode>) -> Result<Bounds, String> {
     if out.len() >= LEAF_REF as usize {
-        return Err("tree too large for the wide layout (2^31 wide nodes)".to_string());
+        return Err(too_large());
     }
     let f = frontier(|i| scene.node(i), b, cell);
     let index = out.len();
@@ -33,13 +109,10 @@ fn emit(scene: &Scene, b: u32, cell: Bounds, out: &mut Vec<WideNode>) -> Result<
     let mut all = EMPTY_BOX;
     for k in 0..f.count {
         let (reference, bounds) = if f.leaves[k] {
-            let leaf = scene.node(f.nodes[k]);
-            let bounds = scene
-                .leaf_prims(&leaf)
-                .ids()
-                .filter_map(|p| prim_box(scene, p).and_then(|b| intersection(b, f.cells[k])))
-                .fold(EMPTY_BOX, union);
-            (LEAF_REF | f.nodes[k], bounds)
+            (
+                LEAF_REF | f.nodes[k],
+                leaf_box(scene, f.nodes[k], f.cells[k]),
+            )
         } else {
             let child = out.len() as u32;
             (child, emit(scene, f.nodes[k], f.cells[k], out)?)

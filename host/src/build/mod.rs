@@ -22,6 +22,7 @@ mod params;
 pub use params::*;
 
 use crate::geometry::Geometry;
+use crate::par::join;
 use clip::Aabb;
 use core::sync::atomic::{AtomicU64, Ordering};
 use events::{Costs, Event, Split};
@@ -46,6 +47,9 @@ pub struct Tree {
     pub root: BuildNode,
     /// Box of all primitives (the root node's box).
     pub bounds: Aabb,
+    /// Whether it was built on rayon's pool ([`BuildParams::parallel`]): the serializer then
+    /// works there too ([`crate::flat::serialize_as`]; the words are the same either way).
+    pub parallel: bool,
 }
 
 /// Primitive access for the builder: global id → clipped bounds.
@@ -222,6 +226,7 @@ pub fn build(
                 min: Vec3::ZERO,
                 max: Vec3::ZERO,
             },
+            parallel: params.parallel,
         });
     }
     let live_count = live.len();
@@ -237,7 +242,11 @@ pub fn build(
             .collect();
         drop((live, boxes));
         let root = fast::build(&ctx, refs, bounds, share);
-        return Ok(Tree { root, bounds });
+        return Ok(Tree {
+            root,
+            bounds,
+            parallel: params.parallel,
+        });
     }
     let events: [Vec<Event>; 3] = core::array::from_fn(|axis| {
         let mut list = Vec::with_capacity(2 * boxes.len());
@@ -249,7 +258,11 @@ pub fn build(
     });
     drop(boxes);
     let root = build_node(&ctx, live, events, bounds, 0, 0, share);
-    Ok(Tree { root, bounds })
+    Ok(Tree {
+        root,
+        bounds,
+        parallel: params.parallel,
+    })
 }
 
 /// Side of each primitive after classification.
@@ -304,21 +317,6 @@ fn build_node(
         split: split.pos,
         children: Box::new([children.0, children.1]),
     }
-}
-
-/// Runs `a` and `b`, on the rayon pool when `parallel` (and the `parallel` feature, which brings
-/// rayon, is on), else one after the other on this thread (the WASM build: one thread).
-fn join<A: Send, B: Send>(
-    parallel: bool,
-    a: impl FnOnce() -> A + Send,
-    b: impl FnOnce() -> B + Send,
-) -> (A, B) {
-    #[cfg(feature = "parallel")]
-    if parallel {
-        return rayon::join(a, b);
-    }
-    let _ = parallel;
-    (a(), b())
 }
 
 type Side = (Vec<u32>, [Vec<Event>; 3]);

@@ -2,15 +2,16 @@
 //! statistics `kdray info` prints.
 
 use crate::build::clip::Aabb;
-use crate::build::{BuildNode, BuildParams, Tree};
+use crate::build::{BuildParams, Tree};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header};
-use kdray_core::group;
-use kdray_core::node::Node;
+use crate::par;
+use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header, stride};
 use kdray_core::{Scene, Triangle};
 use std::io::Write;
 use std::path::Path;
+
+mod tree;
 
 /// How the tree is stored: the node section alone, or also collapsed into wide nodes
 /// (`kdray_core::format::wide`), which the single-ray queries then walk. (Format 7 to 11's
@@ -95,16 +96,15 @@ pub fn serialize_as(
                 .to_string(),
         );
     }
-    let mut nodes: Vec<Node> = Vec::new();
-    let mut indices: Vec<u32> = Vec::new();
-    let depth = flatten(&tree.root, &mut nodes, &mut indices)?;
-    let input_ids = leaf_order(&mut nodes, &mut indices, geom.triangles.len());
-    let reordered = input_ids.as_ref().map(|ids| reorder(geom, ids));
+    let parallel = tree.parallel;
+    let (mut nodes, mut indices, depth) = tree::flatten(&tree.root, parallel)?;
+    let input_ids = tree::leaf_order(&mut nodes, &mut indices, geom.triangles.len());
+    let reordered = input_ids.as_ref().map(|ids| reorder(geom, ids, parallel));
     let geom = reordered.as_ref().unwrap_or(geom);
     let n_tris = geom.triangles.len();
     let groups = match leaves {
         Leaves::List => Vec::new(),
-        Leaves::Groups => to_groups(&mut nodes, &mut indices, geom),
+        Leaves::Groups => tree::to_groups(&mut nodes, &mut indices, geom),
     };
     let mut c = 0;
     if n_tris > 0 {
@@ -132,7 +132,23 @@ pub fn serialize_as(
         c |= contents::MATERIALS;
     }
 
-    let mut words = vec![0u32; HEADER_WORDS];
+    // Every section's words, so that they are reserved at once (the wide section, appended
+    // last, grows them once more).
+    let sections = [
+        stride::NODE * nodes.len(),
+        indices.len(),
+        stride::TRIANGLE * n_tris,
+        stride::SPHERE * geom.spheres.len(),
+        stride::NORMALS * geom.normals.as_ref().map_or(0, Vec::len),
+        stride::UVS * geom.uvs.as_ref().map_or(0, Vec::len),
+        materials.len(),
+        input_ids.as_ref().map_or(0, Vec::len),
+        stride::GROUP * groups.len(),
+    ];
+    let mut words = Vec::with_capacity(
+        HEADER_WORDS + sections.iter().map(|n| n + SECTION_ALIGN).sum::<usize>(),
+    );
+    words.resize(HEADER_WORDS, 0);
     let section = |words: &mut Vec<u32>, slot: usize, data: &mut dyn Iterator<Item = u32>| {
         words.resize(words.len().next_multiple_of(SECTION_ALIGN), 0);
         words[slot] = words.len() as u32;
@@ -151,16 +167,20 @@ pub fn serialize_as(
         );
     }
     if c & contents::TRIANGLES != 0 {
-        let mut it = geom.triangles.iter().flat_map(|t| {
-            let tri = Triangle::from_vertices(t[0], t[1], t[2]);
+        section(&mut words, header::TRIS_OFFSET, &mut core::iter::empty());
+        let at = words.len();
+        words.resize(at + stride::TRIANGLE * n_tris, 0);
+        par::fill(parallel, &mut words[at..], stride::TRIANGLE, |i, out| {
+            let t = &geom.triangles[i];
             let [a, b, c] = t.map(|v| v.to_array());
-            a.into_iter()
-                .chain(b)
-                .chain(c)
-                .chain([tri.min_det2()])
-                .map(f32::to_bits)
+            let threshold = Triangle::from_vertices(t[0], t[1], t[2]).min_det2();
+            for (w, v) in out
+                .iter_mut()
+                .zip(a.into_iter().chain(b).chain(c).chain([threshold]))
+            {
+                *w = v.to_bits();
+            }
         });
-        section(&mut words, header::TRIS_OFFSET, &mut it);
     }
     if c & contents::SPHERES != 0 {
         let mut it = geom
@@ -232,7 +252,7 @@ pub fn serialize_as(
     // With a wide section the words are sealed once it is appended (opening them to collapse the
     // tree reads no checksum).
     if layout == Layout::Wide {
-        append_wide(&mut words)?;
+        append_wide(&mut words, parallel)?;
     } else {
         format::seal(&mut words);
     }
@@ -241,11 +261,11 @@ pub fn serialize_as(
 
 /// Appends the wide section to the scene `words` (collapsed from the scene they hold,
 /// [`crate::wide`]) and seals them.
-fn append_wide(words: &mut Vec<u32>) -> core::result::Result<(), String> {
+fn append_wide(words: &mut Vec<u32>, parallel: bool) -> core::result::Result<(), String> {
     // The words were serialized just above: opened without validating them again (the tests
     // validate every tree the builder makes, wide sections included).
     let scene = Scene::from_built_words(words).map_err(|e| format!("internal: {e}"))?;
-    let wide = crate::wide::to_wide(&scene)?;
+    let wide = crate::wide::to_wide(&scene, parallel)?;
     // Wide nodes start on a 16-word boundary (a cache line in 64-byte aligned words).
     words.resize(words.len().next_multiple_of(format::LINE_WORDS), 0);
     words[header::WIDE_OFFSET] = words.len() as u32;
@@ -258,78 +278,14 @@ fn append_wide(words: &mut Vec<u32>) -> core::result::Result<(), String> {
     Ok(())
 }
 
-/// Renumbers the triangles (ids below `n_tris`; spheres keep theirs) in the order the leaves
-/// first reference them, depth first, rewriting the leaves; returns each new id's input id, or
-/// `None` when that order is the input order. See the input-ids section in
-/// [`kdray_core::format`].
-fn leaf_order(nodes: &mut [Node], indices: &mut [u32], n_tris: usize) -> Option<Vec<u32>> {
-    const NONE: u32 = u32::MAX;
-    let mut new_id = vec![NONE; n_tris];
-    let mut input_ids = Vec::with_capacity(n_tris);
-    let mut renumber = |p: u32| -> u32 {
-        match new_id.get_mut(p as usize) {
-            Some(id) => {
-                if *id == NONE {
-                    *id = input_ids.len() as u32;
-                    input_ids.push(p);
-                }
-                *id
-            }
-            None => p, // a sphere
-        }
-    };
-    for node in nodes.iter_mut().filter(|n| n.is_leaf()) {
-        match node.prim_count() {
-            0 => {}
-            1 => *node = Node::leaf(1, renumber(node.payload())),
-            n => {
-                let start = node.payload() as usize;
-                for p in &mut indices[start..start + n as usize] {
-                    *p = renumber(*p);
-                }
-            }
-        }
-    }
-    // Triangles no leaf references (degenerate ones) go last, in input order.
-    for p in 0..n_tris as u32 {
-        renumber(p);
-    }
-    let identity = input_ids.iter().enumerate().all(|(i, &p)| i as u32 == p);
-    (!identity).then_some(input_ids)
-}
-
-/// Moves the leaves' triangles from the index list (emptied) into groups of four, in node order,
-/// each leaf of several triangles then naming its first group (`kdray_core::group`). `geom` is in
-/// storage order, the order the ids name.
-fn to_groups(nodes: &mut [Node], indices: &mut Vec<u32>, geom: &Geometry) -> Vec<group::Group> {
-    let mut groups = Vec::new();
-    for node in nodes
-        .iter_mut()
-        .filter(|n| n.is_leaf() && n.prim_count() > 1)
-    {
-        let (start, n) = (node.payload() as usize, node.prim_count());
-        *node = Node::leaf(n, groups.len() as u32);
-        for chunk in indices[start..start + n as usize].chunks(group::WIDTH) {
-            let lanes: Vec<group::Lane> = chunk
-                .iter()
-                .map(|&id| {
-                    let v = geom.triangles[id as usize];
-                    (id, v, Triangle::from_vertices(v[0], v[1], v[2]).min_det2())
-                })
-                .collect();
-            groups.push(group::pack(&lanes));
-        }
-    }
-    indices.clear();
-    groups
-}
-
-/// `geom` with its triangles (and their normals, texture coordinates and materials) in the order
+/// `geom` with its triangles (on the pool when `parallel`; and their normals, texture coordinates and materials) in the order
 /// `input_ids` gives.
-fn reorder(geom: &Geometry, input_ids: &[u32]) -> Geometry {
+fn reorder(geom: &Geometry, input_ids: &[u32], parallel: bool) -> Geometry {
     let pick = |i: &u32| *i as usize;
     Geometry {
-        triangles: input_ids.iter().map(|i| geom.triangles[pick(i)]).collect(),
+        triangles: par::map(parallel, input_ids.len(), |k| {
+            geom.triangles[pick(&input_ids[k])]
+        }),
         normals: geom
             .normals
             .as_ref()
@@ -348,53 +304,6 @@ fn reorder(geom: &Geometry, input_ids: &[u32]) -> Geometry {
         },
         spheres: geom.spheres.clone(),
         sphere_materials: geom.sphere_materials.clone(),
-    }
-}
-
-/// Appends `node`'s subtree in pre-order; returns its depth.
-fn flatten(
-    node: &BuildNode,
-    nodes: &mut Vec<Node>,
-    indices: &mut Vec<u32>,
-) -> core::result::Result<u32, String> {
-    let too_big = || "tree too large for the node fields (2^28 nodes, 2^30 per leaf)".to_string();
-    match node {
-        BuildNode::Leaf(prims) => {
-            let count = u32::try_from(prims.len())
-                .ok()
-                .filter(|&n| n <= Node::MAX_COUNT)
-                .ok_or_else(too_big)?;
-            let payload = match prims.len() {
-                0 => 0,
-                1 => prims[0],
-                _ => {
-                    let at = indices.len() as u32;
-                    indices.extend_from_slice(prims);
-                    at
-                }
-            };
-            nodes.push(Node::leaf(count, payload));
-            Ok(0)
-        }
-        BuildNode::Interior {
-            axis,
-            split,
-            children,
-        } => {
-            let at = nodes.len();
-            nodes.push(Node::leaf(0, 0)); // patched below once the above child's index is known
-            let d_below = flatten(&children[0], nodes, indices)?;
-            let above = u32::try_from(nodes.len())
-                .ok()
-                .filter(|&n| n <= Node::MAX_CHILD)
-                .ok_or_else(too_big)?;
-            let empty = children
-                .each_ref()
-                .map(|c| matches!(c, BuildNode::Leaf(p) if p.is_empty()));
-            nodes[at] = Node::interior(*axis as u32, *split, above, empty);
-            let d_above = flatten(&children[1], nodes, indices)?;
-            Ok(1 + d_below.max(d_above))
-        }
     }
 }
 
