@@ -199,7 +199,7 @@ fn fast_without_binning_and_with_perfect_splits_is_the_high_tree() {
             }
         }
     }
-    let tree = |p: &BuildParams| sorted(build(&geom, p, None).unwrap().root);
+    let tree = |p: &BuildParams| sorted(build(&geom, p, None).unwrap().into_root());
     assert!(tree(&high) == tree(&exact_fast));
 }
 
@@ -273,7 +273,7 @@ fn build_on(threads: usize, geom: &Geometry, params: &BuildParams) -> BuildNode 
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| build(geom, params, None).unwrap().root)
+    pool.install(|| build(geom, params, None).unwrap().into_root())
 }
 
 #[test]
@@ -305,7 +305,7 @@ fn a_build_is_the_same_tree_whatever_the_thread_count() {
             None,
         )
         .unwrap()
-        .root;
+        .into_root();
         for threads in [1, 2, 3, 8] {
             assert!(
                 build_on(threads, geom, &params) == serial,

@@ -52,8 +52,8 @@ impl Owned {
     ///
     /// # Errors
     /// As [`Owned::from_words`] (none expected).
-    fn from_built_words(words: &[u32]) -> Result<Self, String> {
-        Self::open(Words::Copied(Aligned::new(words)), true)
+    fn from_built_words(words: Aligned) -> Result<Self, String> {
+        Self::open(Words::Copied(words), true)
     }
 
     fn open(words: Words, built: bool) -> Result<Self, String> {
@@ -140,7 +140,8 @@ pub fn build_geometry(geom: &Geometry, options: Options) -> Result<Owned, String
     let start = std::time::Instant::now();
     let tree = build::build(geom, &params, None)?;
     let ms = start.elapsed().as_secs_f32() * 1e3;
-    let words = flat::serialize_as(&tree, geom, ms, options.layout, options.leaves)?;
-    Owned::from_built_words(&words)
+    let words = flat::serialize_aligned(&tree, geom, ms, options.layout, options.leaves)?;
+    drop(tree);
+    Owned::from_built_words(words)
         .map_err(|e| format!("the built tree does not open ({e}): please report this mesh"))
 }

@@ -116,46 +116,53 @@ fn build_node(
     let (below_box, above_box) = bounds.split(split.axis, split.pos);
     // A plane at the contents' extent cuts off empty space: every reference stays, unchanged,
     // on the contents' side (`side` says so of each), and the partition is skipped.
-    let (nb, na) = match contents {
-        Some(c) if split.pos <= c.min[split.axis] && !split.planar_below => (0, n),
-        Some(c) if split.pos >= c.max[split.axis] && split.planar_below => {
-            // Below goes on top: here the only child, already in place.
-            (n, 0)
-        }
-        _ => partition(ctx, stack, start, &split, &below_box, &above_box),
+    let cut_off = match contents {
+        Some(c) if split.pos <= c.min[split.axis] && !split.planar_below => Some((0, n)),
+        // Below goes on top: here the only child, already in place.
+        Some(c) if split.pos >= c.max[split.axis] && split.planar_below => Some((n, 0)),
+        _ => None,
     };
-    let (sb, sa) = share.split(nb, na);
-    let (below, above) = if parallel && n >= PARALLEL_MIN {
+    if parallel && n >= PARALLEL_MIN {
         // Each child on a stack of its own, so that the two can be built at once. A node this
         // large has its stack to itself (no ancestor of a node smaller than PARALLEL_MIN is
-        // parallel, and a child is never larger than its parent): the above child takes it over.
-        let mut b = stack[start + na..].to_vec();
-        let mut a = if start == 0 {
-            stack.truncate(na);
-            core::mem::take(stack)
-        } else {
-            let a = stack[start..start + na].to_vec();
-            stack.truncate(start);
-            a
+        // parallel, and a child is never larger than its parent): the above child takes it
+        // over, and the partition writes the below child's references straight into theirs.
+        debug_assert_eq!(start, 0);
+        let mut b = Vec::new();
+        let na = match cut_off {
+            Some((0, _)) => n,
+            Some(_) => {
+                core::mem::swap(&mut b, stack);
+                0
+            }
+            None => partition_into(ctx, stack, start, &split, &below_box, &above_box, &mut b),
         };
-        join(
+        let (sb, sa) = share.split(b.len(), na);
+        let mut a = core::mem::take(stack);
+        let (below, above) = join(
             true,
             || build_node(ctx, &mut b, 0, below_box, depth + 1, bad_refines, sb),
             || build_node(ctx, &mut a, 0, above_box, depth + 1, bad_refines, sa),
-        )
-    } else {
-        let below = build_node(
-            ctx,
-            stack,
-            start + na,
-            below_box,
-            depth + 1,
-            bad_refines,
-            sb,
         );
-        let above = build_node(ctx, stack, start, above_box, depth + 1, bad_refines, sa);
-        (below, above)
-    };
+        return BuildNode::Interior {
+            axis: split.axis as u8,
+            split: split.pos,
+            children: Box::new([below, above]),
+        };
+    }
+    let (nb, na) =
+        cut_off.unwrap_or_else(|| partition(ctx, stack, start, &split, &below_box, &above_box));
+    let (sb, sa) = share.split(nb, na);
+    let below = build_node(
+        ctx,
+        stack,
+        start + na,
+        below_box,
+        depth + 1,
+        bad_refines,
+        sb,
+    );
+    let above = build_node(ctx, stack, start, above_box, depth + 1, bad_refines, sa);
     BuildNode::Interior {
         axis: split.axis as u8,
         split: split.pos,
@@ -386,38 +393,53 @@ fn partition(
     above_box: &Aabb,
 ) -> (usize, usize) {
     BELOW.with_borrow_mut(|below| {
-        let end = stack.len();
-        let exact = end - start >= ctx.params.fast.clip_min;
         below.clear();
-        // The above child's references go on top of the stack, the below child's aside.
-        for i in start..end {
-            let r = stack[i];
-            match side(&r, split) {
-                Side::Below => below.push(r),
-                Side::Above => stack.push(r),
-                Side::Both => {
-                    let (b, a) = if exact {
-                        (ctx.clip(r.id, below_box), ctx.clip(r.id, above_box))
-                    } else {
-                        ctx.prims.split(r.id, split.axis, split.pos, &r.bounds)
-                    };
-                    // Rounding can in principle empty both: keep the primitive,
-                    // conservatively, below.
-                    let b = match (b, a) {
-                        (None, None) => Some(r.bounds.intersection(below_box)),
-                        _ => b,
-                    };
-                    below.extend(b.map(|bounds| Ref { id: r.id, bounds }));
-                    stack.extend(a.map(|bounds| Ref { id: r.id, bounds }));
-                }
-            }
-        }
-        let na = stack.len() - end;
-        stack.copy_within(end.., start);
-        stack.truncate(start + na);
+        let na = partition_into(ctx, stack, start, split, below_box, above_box, below);
         stack.extend_from_slice(below);
         (below.len(), na)
     })
+}
+
+/// [`partition`] with the below child's references pushed onto `below` instead: the above
+/// child's are left at `stack[start..]`; returns their number.
+fn partition_into(
+    ctx: &Ctx,
+    stack: &mut Vec<Ref>,
+    start: usize,
+    split: &Split,
+    below_box: &Aabb,
+    above_box: &Aabb,
+    below: &mut Vec<Ref>,
+) -> usize {
+    let end = stack.len();
+    let exact = end - start >= ctx.params.fast.clip_min;
+    // The above child's references go on top of the stack, the below child's aside.
+    for i in start..end {
+        let r = stack[i];
+        match side(&r, split) {
+            Side::Below => below.push(r),
+            Side::Above => stack.push(r),
+            Side::Both => {
+                let (b, a) = if exact {
+                    (ctx.clip(r.id, below_box), ctx.clip(r.id, above_box))
+                } else {
+                    ctx.prims.split(r.id, split.axis, split.pos, &r.bounds)
+                };
+                // Rounding can in principle empty both: keep the primitive,
+                // conservatively, below.
+                let b = match (b, a) {
+                    (None, None) => Some(r.bounds.intersection(below_box)),
+                    _ => b,
+                };
+                below.extend(b.map(|bounds| Ref { id: r.id, bounds }));
+                stack.extend(a.map(|bounds| Ref { id: r.id, bounds }));
+            }
+        }
+    }
+    let na = stack.len() - end;
+    stack.copy_within(end.., start);
+    stack.truncate(start + na);
+    na
 }
 
 #[cfg(test)]

@@ -6,6 +6,7 @@ use crate::build::{BuildParams, Tree};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::par;
+use kdray_core::format::wide::WideNode;
 use kdray_core::format::{self, HEADER_WORDS, SECTION_ALIGN, contents, header, stride};
 use kdray_core::{Scene, Triangle};
 use std::io::Write;
@@ -77,7 +78,8 @@ pub fn serialize(
 
 /// Flattens `tree` in depth-first order (below child first: the order `Scene::from_words`
 /// requires), appends the geometry sections the scene needs, and for [`Layout::Wide`] the wide
-/// section.
+/// section. On rayon's pool when the tree was built there ([`Tree::parallel`]); the words are
+/// the same either way.
 ///
 /// # Errors
 /// A tree too large for the node fields (2³⁰ nodes or primitives in one leaf) or the wide nodes;
@@ -89,6 +91,63 @@ pub fn serialize_as(
     layout: Layout,
     leaves: Leaves,
 ) -> core::result::Result<Vec<u32>, String> {
+    let (mut words, wide) = sections(tree, geom, build_ms, layout, leaves)?;
+    if !wide.is_empty() {
+        words.resize(words.len().next_multiple_of(format::LINE_WORDS), 0);
+        words.extend_from_slice(wide.as_flattened());
+    }
+    finish(&mut words, wide.len())?;
+    Ok(words)
+}
+
+/// [`serialize_as`]'s words written once, 64-byte aligned ([`Aligned`]): what a caller that
+/// traces them at once wants, without a copy into aligned memory.
+///
+/// # Errors
+/// As [`serialize_as`].
+pub fn serialize_aligned(
+    tree: &Tree,
+    geom: &Geometry,
+    build_ms: f32,
+    layout: Layout,
+    leaves: Leaves,
+) -> core::result::Result<Aligned, String> {
+    let (words, wide) = sections(tree, geom, build_ms, layout, leaves)?;
+    let wide_at = if wide.is_empty() {
+        words.len()
+    } else {
+        words.len().next_multiple_of(format::LINE_WORDS)
+    };
+    let mut out = Aligned::zeroed(wide_at + wide.len() * format::stride::WIDE);
+    out[..words.len()].copy_from_slice(&words);
+    drop(words);
+    out[wide_at..].copy_from_slice(wide.as_flattened());
+    finish(&mut out, wide.len())?;
+    Ok(out)
+}
+
+/// Seals `words` (the header's counts and checksum), the last `wide` wide nodes (0: none) on
+/// the line boundary where they start.
+fn finish(words: &mut [u32], wide: usize) -> core::result::Result<(), String> {
+    words[header::TOTAL_WORDS] =
+        u32::try_from(words.len()).map_err(|_| "scene larger than 2^32 words".to_string())?;
+    if wide > 0 {
+        words[header::WIDE_OFFSET] = (words.len() - wide * format::stride::WIDE) as u32;
+        words[header::WIDE_COUNT] = wide as u32;
+        words[header::CONTENTS] |= contents::WIDE;
+    }
+    format::seal(words);
+    Ok(())
+}
+
+/// The scene's words but the wide section, not sealed, and for [`Layout::Wide`] its wide nodes.
+fn sections(
+    tree: &Tree,
+    geom: &Geometry,
+    build_ms: f32,
+    layout: Layout,
+    leaves: Leaves,
+) -> core::result::Result<(Vec<u32>, Vec<WideNode>), String> {
     if leaves == Leaves::Groups && !geom.spheres.is_empty() {
         return Err(
             "triangle groups (--leaves groups) need a scene of triangles only; \
@@ -249,33 +308,16 @@ pub fn serialize_as(
         words[header::BOUNDS + k] = v.to_bits();
     }
     words[header::BUILD_MS] = build_ms.to_bits();
-    // With a wide section the words are sealed once it is appended (opening them to collapse the
-    // tree reads no checksum).
-    if layout == Layout::Wide {
-        append_wide(&mut words, parallel)?;
-    } else {
-        format::seal(&mut words);
-    }
-    Ok(words)
-}
-
-/// Appends the wide section to the scene `words` (collapsed from the scene they hold,
-/// [`crate::wide`]) and seals them.
-fn append_wide(words: &mut Vec<u32>, parallel: bool) -> core::result::Result<(), String> {
-    // The words were serialized just above: opened without validating them again (the tests
-    // validate every tree the builder makes, wide sections included).
-    let scene = Scene::from_built_words(words).map_err(|e| format!("internal: {e}"))?;
-    let wide = crate::wide::to_wide(&scene, parallel)?;
-    // Wide nodes start on a 16-word boundary (a cache line in 64-byte aligned words).
-    words.resize(words.len().next_multiple_of(format::LINE_WORDS), 0);
-    words[header::WIDE_OFFSET] = words.len() as u32;
-    words[header::WIDE_COUNT] = wide.len() as u32;
-    words.extend(wide.iter().flatten());
-    words[header::CONTENTS] |= contents::WIDE;
-    words[header::TOTAL_WORDS] =
-        u32::try_from(words.len()).map_err(|_| "scene larger than 2^32 words".to_string())?;
-    format::seal(words);
-    Ok(())
+    let wide = match layout {
+        Layout::Nodes => Vec::new(),
+        Layout::Wide => {
+            // The words were serialized just above: opened without validating them again (the
+            // tests validate every tree the builder makes, wide sections included).
+            let scene = Scene::from_built_words(&words).map_err(|e| format!("internal: {e}"))?;
+            crate::wide::to_wide(&scene, parallel)?
+        }
+    };
+    Ok((words, wide))
 }
 
 /// `geom` with its triangles (on the pool when `parallel`; and their normals, texture coordinates and materials) in the order
@@ -338,11 +380,23 @@ pub struct Aligned {
 impl Aligned {
     /// A 64-byte aligned copy of `words`.
     pub fn new(words: &[u32]) -> Self {
-        let mut buf = vec![0u32; words.len() + 15];
+        let mut a = Self::zeroed(words.len());
+        a.copy_from_slice(words);
+        a
+    }
+
+    /// `n` zero words, 64-byte aligned.
+    fn zeroed(n: usize) -> Self {
+        let mut buf = vec![0u32; n + 15];
         let start = (64 - buf.as_ptr() as usize % 64) % 64 / 4;
-        buf[start..start + words.len()].copy_from_slice(words);
-        buf.truncate(start + words.len());
+        buf.truncate(start + n);
         Self { buf, start }
+    }
+}
+
+impl core::ops::DerefMut for Aligned {
+    fn deref_mut(&mut self) -> &mut [u32] {
+        &mut self.buf[self.start..]
     }
 }
 
