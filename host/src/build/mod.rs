@@ -82,6 +82,17 @@ fn free(node: BuildNode, levels: u32) {
     }
 }
 
+/// What the builder makes of a triangle.
+enum Kind {
+    NonFinite,
+    /// Too large for f32 arithmetic ([`Triangle::is_too_large`]).
+    TooLarge,
+    /// No finite threshold: left out of the tree.
+    Degenerate,
+    /// In the tree, with its box.
+    Live(Aabb),
+}
+
 /// Primitive access for the builder: global id → clipped bounds.
 struct Prims<'a> {
     tris: &'a [[Vec3; 3]],
@@ -198,11 +209,25 @@ pub fn build(
     params: &BuildParams,
     progress: Option<&AtomicU64>,
 ) -> Result<Tree, String> {
-    if let Some(i) = geom
-        .triangles
-        .iter()
-        .position(|t| !t.iter().all(|v| v.is_finite()))
-    {
+    // One pass over the triangles (on the pool for a parallel build) says what each is; the
+    // errors then name the first triangle of each kind, non-finite ones before too large ones.
+    let kinds = crate::par::map(params.parallel, geom.triangles.len(), |i| {
+        let t = &geom.triangles[i];
+        if !t.iter().all(|v| v.is_finite()) {
+            return Kind::NonFinite;
+        }
+        let k = Triangle::from_vertices(t[0], t[1], t[2]);
+        if k.is_too_large() {
+            Kind::TooLarge
+        } else if k.min_det2() < f32::INFINITY {
+            Kind::Live(Aabb::around(t))
+        } else {
+            // Degenerate (no finite threshold: `Triangle::min_det2`): never hit by any kernel,
+            // so it stays out of the tree.
+            Kind::Degenerate
+        }
+    });
+    if let Some(i) = kinds.iter().position(|k| matches!(k, Kind::NonFinite)) {
         return Err(format!("triangle {i} has a non-finite coordinate"));
     }
     if let Some(i) = geom
@@ -214,12 +239,7 @@ pub fn build(
             "sphere {i} has a non-finite centre or a radius that is not > 0"
         ));
     }
-    let kernel_tri = |t: &[Vec3; 3]| Triangle::from_vertices(t[0], t[1], t[2]);
-    if let Some(i) = geom
-        .triangles
-        .iter()
-        .position(|t| kernel_tri(t).is_too_large())
-    {
+    if let Some(i) = kinds.iter().position(|k| matches!(k, Kind::TooLarge)) {
         return Err(format!(
             "triangle {i} is too large for f32 arithmetic: its edges' cross product reaches \
              7.7e25 (edges beyond about 8e12); scale the scene down"
@@ -229,24 +249,29 @@ pub fn build(
         tris: &geom.triangles,
         spheres: &geom.spheres,
     };
-    // Degenerate triangles (no finite threshold: `Triangle::min_det2`) are never hit by any
-    // kernel, so they stay out of the tree.
-    let live: Vec<u32> = (0..geom.prim_count() as u32)
-        .filter(|&id| match geom.triangles.get(id as usize) {
-            Some(t) => kernel_tri(t).min_det2() < f32::INFINITY,
-            None => true,
+    let n_tris = geom.triangles.len() as u32;
+    let mut refs: Vec<fast::Ref> = kinds
+        .iter()
+        .zip(0..)
+        .filter_map(|(k, id)| match k {
+            Kind::Live(bounds) => Some(fast::Ref { id, bounds: *bounds }),
+            _ => None,
         })
         .collect();
-    let boxes: Vec<Aabb> = live.iter().map(|&id| prims.bounds(id)).collect();
-    let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+    drop(kinds);
+    refs.extend((n_tris..geom.prim_count() as u32).map(|id| fast::Ref {
+        id,
+        bounds: prims.bounds(id),
+    }));
+    let bounds = refs.iter().fold(Aabb::EMPTY, |a, r| a.union(&r.bounds));
     let ctx = Ctx {
         prims,
         params: *params,
         costs: params.costs(),
-        depth_limits: params.depth_limits(live.len()),
+        depth_limits: params.depth_limits(refs.len()),
         progress,
     };
-    if live.is_empty() {
+    if refs.is_empty() {
         if let Some(p) = progress {
             p.fetch_add(PROGRESS_TOTAL, Ordering::Relaxed);
         }
@@ -259,18 +284,11 @@ pub fn build(
             parallel: params.parallel,
         });
     }
-    let live_count = live.len();
     let share = Share {
         weight: PROGRESS_TOTAL,
-        refs: params.reference_budget * live_count as f64,
+        refs: params.reference_budget * refs.len() as f64,
     };
     if params.quality == Quality::Fast {
-        let refs = live
-            .iter()
-            .zip(&boxes)
-            .map(|(&id, &bounds)| fast::Ref { id, bounds })
-            .collect();
-        drop((live, boxes));
         let root = fast::build(&ctx, refs, bounds, share);
         return Ok(Tree {
             root,
@@ -279,14 +297,15 @@ pub fn build(
         });
     }
     let events: [Vec<Event>; 3] = core::array::from_fn(|axis| {
-        let mut list = Vec::with_capacity(2 * boxes.len());
-        for (local, b) in boxes.iter().enumerate() {
-            events::push_events(&mut list, b, axis, local as u32);
+        let mut list = Vec::with_capacity(2 * refs.len());
+        for (local, r) in refs.iter().enumerate() {
+            events::push_events(&mut list, &r.bounds, axis, local as u32);
         }
         events::sort_events(&mut list);
         list
     });
-    drop(boxes);
+    let live = refs.iter().map(|r| r.id).collect();
+    drop(refs);
     let root = build_node(&ctx, live, events, bounds, 0, 0, share);
     Ok(Tree {
         root,
