@@ -178,18 +178,23 @@ fn sections(
     if geom.uvs.is_some() && n_tris > 0 {
         c |= contents::UVS;
     }
-    let materials: Vec<u32> = (0..geom.prim_count())
-        .map(|i| {
-            if i < n_tris {
-                geom.tri_materials.get(i).copied().unwrap_or(0)
-            } else {
-                geom.sphere_materials.get(i - n_tris).copied().unwrap_or(0)
-            }
-        })
-        .collect();
-    if materials.iter().any(|&m| m != 0) {
+    let materials: Vec<u32> = if (geom.tri_materials.iter())
+        .chain(&geom.sphere_materials)
+        .any(|&m| m != 0)
+    {
         c |= contents::MATERIALS;
-    }
+        (0..geom.prim_count())
+            .map(|i| {
+                if i < n_tris {
+                    geom.tri_materials.get(i).copied().unwrap_or(0)
+                } else {
+                    geom.sphere_materials.get(i - n_tris).copied().unwrap_or(0)
+                }
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
 
     // Every section's words, so that they are reserved at once (the wide section, appended
     // last, grows them once more).
@@ -213,11 +218,12 @@ fn sections(
         words[slot] = words.len() as u32;
         words.extend(data);
     };
-    section(
-        &mut words,
-        header::NODES_OFFSET,
-        &mut nodes.iter().flat_map(|n| n.words()),
-    );
+    section(&mut words, header::NODES_OFFSET, &mut core::iter::empty());
+    let at = words.len();
+    words.resize(at + stride::NODE * nodes.len(), 0);
+    par::fill(parallel, &mut words[at..], stride::NODE, |i, out| {
+        out.copy_from_slice(&nodes[i].words());
+    });
     if !indices.is_empty() {
         section(
             &mut words,
@@ -285,7 +291,7 @@ fn sections(
         section(
             &mut words,
             header::GROUPS_OFFSET,
-            &mut groups.iter().flatten().copied(),
+            &mut groups.as_flattened().iter().copied(),
         );
         words[header::GROUP_COUNT] = groups.len() as u32;
     }
