@@ -18,6 +18,7 @@ pub fn join<A: Send, B: Send>(
 }
 
 /// Items a task takes in [`fill`] and [`map`]: large enough that a task outweighs its scheduling.
+#[cfg(feature = "parallel")]
 const TASK_ITEMS: usize = 16 * 1024;
 
 /// Calls `f(i, chunk)` for the `i`-th run of `width` items of `out` (the last may be shorter),

@@ -254,7 +254,10 @@ pub fn build(
         .iter()
         .zip(0..)
         .filter_map(|(k, id)| match k {
-            Kind::Live(bounds) => Some(fast::Ref { id, bounds: *bounds }),
+            Kind::Live(bounds) => Some(fast::Ref {
+                id,
+                bounds: *bounds,
+            }),
             _ => None,
         })
         .collect();
