@@ -4,7 +4,7 @@
 //! walk's answers need, not the cut itself, which `tests/tests/wide_cut.rs` checks), and each child's box is computed bottom up: a leaf's, the union of its
 //! primitives' boxes clipped to its cell; a wide node's, the union of its own boxes. Wide nodes are
 //! numbered in the order a depth-first walk in slot order first enters them. On rayon's pool the
-//! subtrees below the top [`PARALLEL_LEVELS`] wide levels are collapsed at once and appended in
+//! subtrees below the top `PARALLEL_LEVELS` (two) wide levels are collapsed at once and appended in
 //! that order, renumbered: the nodes are the same.
 
 use crate::par;
