@@ -78,6 +78,7 @@ pub mod error;
 pub mod files;
 pub mod geometry;
 pub mod input;
+pub mod instances;
 pub mod load;
 pub mod memory;
 pub mod scene;
