@@ -36,7 +36,7 @@ fn patch() -> Geometry {
 fn placement(k: u32, phase: f32) -> Placement {
     let (s, c) = (phase + k as f32).sin_cos();
     let scale = 0.5 + (k % 11) as f32 / 10.0;
-    let mirror = if k % 3 == 0 { -1.0 } else { 1.0 };
+    let mirror = if k.is_multiple_of(3) { -1.0 } else { 1.0 };
     let (x, y) = ((k % 100) as f32 * 2.0, (k / 100) as f32 * 2.0);
     Placement {
         bottom: 0,
@@ -92,10 +92,10 @@ fn main() -> Result<(), Box<dyn core::error::Error>> {
     let build_ms = median_ms(|| {
         frame += 0.01;
         let moved: Vec<Placement> = (0..n).map(|k| placement(k, frame)).collect();
-        std::hint::black_box(top_level(&bottoms, &moved).unwrap());
+        core::hint::black_box(top_level(&bottoms, &moved).unwrap());
     });
     let validate_ms = median_ms(|| {
-        std::hint::black_box(InstancedScene::from_words(&words, &bottoms).unwrap());
+        core::hint::black_box(InstancedScene::from_words(&words, &bottoms).unwrap());
     });
     println!(
         "top level: build {build_ms:.2} ms (placements included), validate {validate_ms:.2} ms"

@@ -105,7 +105,8 @@ fn f64_hit(v: [DVec3; 3], o: DVec3, d: DVec3) -> Option<(f64, f64, f64, f64)> {
 /// clear of the ray's range ends; the walk must find a hit no farther than the closest robust
 /// one, and miss only when there is none. Whatever it reports must be a real triangle of its
 /// instance, at most `4δ` outside it, at its f64 `t` within `4δ/sin`; and any hit must agree
-/// with closest hit. The user id must be that of the placement whose transform the record holds.
+/// with closest hit. The user id must be that of the placement whose transform the record holds,
+/// and the world normal that of the triangle as placed.
 fn check_ray(
     top: &InstancedScene,
     meshes: &[Vec<[Vec3; 3]>],
@@ -171,6 +172,17 @@ fn check_ray(
     let (t, margin, sin, h) =
         f64_hit(world(got.instance, &tri), o, d).expect("a hit on a parallel triangle");
     let dl = delta(got.instance, t);
+    // The normal in world space: e1 × e2 of the triangle as placed, up to a positive factor.
+    let w = world(got.instance, &tri);
+    let want = (w[1] - w[0]).cross(w[2] - w[0]).normalize();
+    let normal = top.geometric_normal(&got, ray).as_dvec3().normalize();
+    prop_assert!(
+        normal.dot(want) > 0.999,
+        "normal {:?}, want {:?} ({:?})",
+        normal,
+        want,
+        got
+    );
     prop_assert!(
         margin * h >= -4.0 * dl - 1.0e-3 * h,
         "{:?} hit outside its triangle: {:?} {:?}",

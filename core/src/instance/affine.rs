@@ -103,6 +103,13 @@ impl Affine {
         core::array::from_fn(|r| dot(self.row64(r), p) + t[r])
     }
 
+    /// The determinant of the linear part, in f64 (exact but for the last rounding: products of
+    /// f32 entries).
+    pub fn determinant(&self) -> f64 {
+        let [r0, r1, r2] = [self.row64(0), self.row64(1), self.row64(2)];
+        dot(r0, cross(r1, r2))
+    }
+
     /// Whether the linear part is invertible in a meaningful sense: finite and
     /// `|det A| ≥ MIN_DET_RATIO·|a₀|·|a₁|·|a₂|` ([`MIN_DET_RATIO`]), in f64 (where the products
     /// of f32 entries cannot overflow).

@@ -233,6 +233,31 @@ impl<'a, 'b> InstancedScene<'a, 'b> {
         }
     }
 
+    /// The geometric normal at `hit` (from [`Self::intersect`] along `ray`) in world space, not
+    /// normalized: the bottom scene's ([`Scene::geometric_normal`], at the hit point moved into
+    /// the instance) carried by the inverse transpose and, under a mirroring transform
+    /// (determinant < 0), negated, so that it is, up to a positive factor, `e1 × e2` of the
+    /// triangle as placed: the winding mirrors with the mesh. Zero for a miss.
+    pub fn geometric_normal(&self, hit: &InstanceHit, ray: &crate::Ray) -> Vec3 {
+        if !hit.is_hit() {
+            return Vec3::ZERO;
+        }
+        let inst = self.instance(hit.instance);
+        let local = inst.inverse.point(ray.at(hit.t));
+        let n = self
+            .bottom_of(hit.instance)
+            .geometric_normal(hit.prim, local);
+        let m = &inst.inverse.0;
+        // (A⁻¹)ᵀ·n: column j of A⁻¹ dotted with n.
+        let col = |j: usize| m[j] * n.x + m[4 + j] * n.y + m[8 + j] * n.z;
+        let world = Vec3::new(col(0), col(1), col(2));
+        if inst.transform.determinant() < 0.0 {
+            -world
+        } else {
+            world
+        }
+    }
+
     /// The bottom scene of instance `i`.
     ///
     /// # Panics

@@ -20,8 +20,11 @@
 //! underflow to subnormals), so the bottom walk returns `t/f` exactly and `t` is recovered bit
 //! for bit. Rotations and mild scales (`[1/4, 4)`) are left alone, so an identity or a
 //! translation gives the bottom walk the world ray's own direction. A moved direction whose
-//! largest component is outside `[2⁻¹²⁶, 2¹²⁶)` (a scale beyond 10³⁷) or not finite enters no
-//! instance: a miss.
+//! largest component is outside `[2⁻¹²⁶, 2¹²⁶)` (a scale beyond 10³⁷) or not finite, or a moved
+//! origin that overflows, enters no instance: a miss. A world range whose ends overflow when
+//! scaled (`|tmin|` or `tmax` beyond `f32::MAX/f`, only with scales below 1/4 and ranges beyond
+//! 10³⁴) is taken as unbounded on that side by the bottom walk; closest hits are then checked
+//! against the world range again, any hit is not.
 
 use super::{Affine, InstancedScene, MAX_DEPTH, NODE_WORDS, affine_at, box_at, node, record};
 use crate::format::Scene;
@@ -120,7 +123,7 @@ impl Visit for ClosestVisit {
             let bottom: &Scene = &top.bottoms[inst[record::BOTTOM] as usize];
             let hit = bottom.intersect_in(self.mode, &local);
             let t = hit.t * f;
-            if hit.is_hit() && t < self.tmax {
+            if hit.is_hit() && t < self.tmax && t > ray.tmin {
                 self.tmax = t;
                 self.best = InstanceHit {
                     t,
