@@ -4,7 +4,8 @@
 //! The tree over the instances is walked front to back (the nearer child first, the other
 //! pending with its entry distance and skipped once the closest hit lies before it), each box
 //! entered as the watertight walk enters the scene box ([`crate::traverse::clip_to_box_in`],
-//! both slab distances widened outward). At an instance, the ray is moved into the bottom scene:
+//! both slab distances widened outward; here with the direction's reciprocals computed once a
+//! ray, [`Slabs`]). At an instance, the ray is moved into the bottom scene:
 //! origin by the stored inverse ([`Affine::point`]), direction by its linear part
 //! ([`Affine::vector`]), **not normalized**, so a point at parameter `t` on the moved ray is the
 //! image of the world ray's point at the same `t`: `t` stays in world units and the closest hits
@@ -26,10 +27,10 @@
 //! 10³⁴) is taken as unbounded on that side by the bottom walk; closest hits are then checked
 //! against the world range again, any hit is not.
 
-use super::{Affine, InstancedScene, MAX_DEPTH, NODE_WORDS, affine_at, box_at, node, record};
+use super::{Affine, InstancedScene, MAX_DEPTH, NODE_WORDS, affine_at, node, record};
 use crate::format::Scene;
 use crate::ray::{Hit, Ray};
-use crate::traverse::{Mode, clip_to_box_in};
+use crate::traverse::{Mode, widen};
 
 /// The closest hit of a ray through a top level.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -98,6 +99,61 @@ pub fn into_instance(inverse: &Affine, ray: &Ray) -> Option<(Ray, f32)> {
         },
         1.0,
     ))
+}
+
+/// The world ray prepared for the walk's many box tests: each direction component's reciprocal
+/// computed once, where [`crate::traverse::clip_to_box_in`] divides per box; otherwise the same
+/// arithmetic (so the same entry distances, bit for bit).
+struct Slabs {
+    origin: [f32; 3],
+    dir: [f32; 3],
+    inv: [f32; 3],
+    tmin: f32,
+}
+
+impl Slabs {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        let dir = ray.dir.to_array();
+        Self {
+            origin: ray.origin.to_array(),
+            dir,
+            inv: dir.map(|d| 1.0 / d),
+            tmin: ray.tmin,
+        }
+    }
+
+    /// The entry distance over `(tmin, tmax)` into the box stored in `b`'s first six words,
+    /// both slab distances [`widen`]ed outward, or `None` for a miss.
+    #[inline(always)]
+    fn enter(&self, b: &[u32], tmax: f32) -> Option<f32> {
+        let (mut t0, mut t1) = (self.tmin, tmax);
+        for a in 0..3 {
+            let (lo, hi) = (f32::from_bits(b[a]), f32::from_bits(b[3 + a]));
+            let (o, d, inv) = (self.origin[a], self.dir[a], self.inv[a]);
+            if d == 0.0 {
+                if o < lo || o > hi {
+                    return None;
+                }
+                continue;
+            }
+            let (mut near, mut far) = if inv.is_finite() {
+                ((lo - o) * inv, (hi - o) * inv)
+            } else {
+                // A subnormal component: divided, as `clip_to_box_in` does (`0·∞` on a face).
+                ((lo - o) / d, (hi - o) / d)
+            };
+            if near > far {
+                core::mem::swap(&mut near, &mut far);
+            }
+            t0 = t0.max(widen(near).0);
+            t1 = t1.min(widen(far).1);
+            if t0 > t1 {
+                return None;
+            }
+        }
+        Some(t0)
+    }
 }
 
 /// What the walk does with each instance it enters; returns the closest `t` so far (the walk
@@ -190,12 +246,6 @@ impl InstancedScene<'_, '_> {
         visit.found
     }
 
-    /// The entry distance of `ray` over `(ray.tmin, tmax)` into node or record box `b`.
-    #[inline(always)]
-    fn enter(ray: &Ray, tmax: f32, b: &[u32]) -> Option<f32> {
-        clip_to_box_in::<true>(&ray.with_range(ray.tmin, tmax), box_at(b)).map(|(t0, _)| t0)
-    }
-
     /// The front-to-back walk of the tree (see the module doc).
     fn walk<V: Visit>(&self, ray: &Ray, visit: &mut V) {
         if !ray.is_finite() {
@@ -204,7 +254,8 @@ impl InstancedScene<'_, '_> {
         let mut tmax = ray.tmax;
         let mut stack = [(0u32, 0.0f32); MAX_DEPTH];
         let mut len = 0;
-        let mut current = match Self::enter(ray, tmax, &self.nodes[0][node::BOX..]) {
+        let slabs = Slabs::new(ray);
+        let mut current = match slabs.enter(&self.nodes[0][node::BOX..], tmax) {
             Some(_) => 0u32,
             None => return,
         };
@@ -214,8 +265,8 @@ impl InstancedScene<'_, '_> {
             let mut next = None;
             if count == 0 {
                 let (a, b) = (current + 1, nd[node::CHILD_OR_FIRST]);
-                let ta = Self::enter(ray, tmax, &self.nodes[a as usize][node::BOX..]);
-                let tb = Self::enter(ray, tmax, &self.nodes[b as usize][node::BOX..]);
+                let ta = slabs.enter(&self.nodes[a as usize][node::BOX..], tmax);
+                let tb = slabs.enter(&self.nodes[b as usize][node::BOX..], tmax);
                 next = match (ta, tb) {
                     (Some(ta), Some(tb)) => {
                         let (near, far, tfar) = if tb < ta { (b, a, ta) } else { (a, b, tb) };
@@ -232,7 +283,7 @@ impl InstancedScene<'_, '_> {
                 let first = nd[node::CHILD_OR_FIRST];
                 for i in first..first + count {
                     let r = &self.records[i as usize];
-                    if Self::enter(ray, tmax, &r[record::BOX..]).is_none() {
+                    if slabs.enter(&r[record::BOX..], tmax).is_none() {
                         continue;
                     }
                     let (t, stop) = visit.instance(self, i, ray);
