@@ -7,9 +7,9 @@
 //! mode: any hit must agree with closest hit, and a hit must name an instance in range, whose
 //! bottom scene hits the ray moved into it at the same `t`.
 //!
-//! Run: `cargo +nightly fuzz run instances` (from the repository root). Seeds: top levels built
-//! by `kdray::instances::top_level` (`fuzz/seed.sh` writes none yet; the target starts from
-//! nothing and finds the magic within seconds, the checksum being resealed).
+//! Run: `bash fuzz/run.sh 600 instances` (from the repository root); the corpus starts from
+//! `fuzz/seeds/instances/` (a top level of five instances over the two bottom scenes below:
+//! mirrored, sheared, scaled by 10³ and 10⁻³).
 #![no_main]
 
 use glam::Vec3;
