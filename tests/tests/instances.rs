@@ -403,3 +403,37 @@ fn odd_rays_are_misses() {
         assert!(!top.occluded(&ray), "{ray:?}");
     }
 }
+
+/// A bottom scene of one unit sphere, stretched by 2 along x: an ellipsoid, traced in the
+/// sphere's own space, with the analytic hit and normal of `x²/4 + y² + z² = 1`.
+#[test]
+fn spheres_stretched_into_ellipsoids() {
+    let geom = Geometry {
+        spheres: vec![(Vec3::ZERO, 1.0)],
+        ..Geometry::default()
+    };
+    let tree = build(&geom, &BuildParams::default(), None).unwrap();
+    let words = serialize(&tree, &geom, 0.0).unwrap();
+    let bottoms = [Scene::from_words(&words).unwrap()];
+    let stretch = Affine([2.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    let placements = [Placement {
+        bottom: 0,
+        transform: stretch,
+        user_id: 9,
+    }];
+    let top_words = top_level(&bottoms, &placements).unwrap();
+    let top = InstancedScene::from_words(&top_words, &bottoms).unwrap();
+    let ray = Ray::new(Vec3::new(1.5, 0.0, 10.0), Vec3::NEG_Z);
+    let z = (1.0f64 - 0.75 * 0.75).sqrt();
+    for mode in [Mode::Fast, Mode::Watertight] {
+        let hit = top.intersect_in(mode, &ray);
+        assert_eq!(hit.user_id, 9);
+        assert!((hit.t as f64 - (10.0 - z)).abs() < 1e-5, "{mode:?} {hit:?}");
+        let n = top.geometric_normal(&hit, &ray).as_dvec3().normalize();
+        let want = DVec3::new(0.75, 0.0, 2.0 * z).normalize();
+        assert!(n.dot(want) > 1.0 - 1e-6, "{n:?} against {want:?}");
+        // Within the ellipsoid's reach along x (2) though beyond the unit sphere's (1); then past it.
+        assert!(top.occluded_in(mode, &Ray::new(Vec3::new(1.9, 0.0, 10.0), Vec3::NEG_Z)));
+        assert!(!top.occluded_in(mode, &Ray::new(Vec3::new(2.1, 0.0, 10.0), Vec3::NEG_Z)));
+    }
+}
