@@ -16,7 +16,7 @@
 //! ```text
 //!  0  MAGIC           0x4952_444B, the bytes "KDRI" read as a little-endian u32 (a single-mesh
 //!                     scene's "KDRY" is refused with `InstanceError::SingleMesh`, and the
-//!                     single-mesh reader refuses "KDRI" as a bad magic)
+//!                     single-mesh reader refuses "KDRI" with `FormatError::TopLevel`)
 //!  1  VERSION         1
 //!  2  TOTAL_WORDS     length of the whole array in words
 //!  3  INSTANCE_COUNT  instance records (≥ 1)
@@ -97,8 +97,8 @@ pub use walk::InstanceHit;
 use crate::format::Scene;
 use glam::Vec3;
 
-/// "KDRI" as a little-endian word.
-pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRI");
+/// "KDRI" as a little-endian word (the single-mesh format knows it too, to name it in its error).
+pub const MAGIC: u32 = crate::format::TOP_LEVEL_MAGIC;
 /// The top level's format version this core reads and the host writes.
 pub const VERSION: u32 = 1;
 /// Words before the nodes.
