@@ -5,7 +5,7 @@
 //! pending with its entry distance and skipped once the closest hit lies before it), each box
 //! entered as the watertight walk enters the scene box ([`crate::traverse::clip_to_box_in`],
 //! both slab distances widened outward; here with the direction's reciprocals computed once a
-//! ray, [`Slabs`]). At an instance, the ray is moved into the bottom scene:
+//! ray, `Slabs`). At an instance, the ray is moved into the bottom scene:
 //! origin by the stored inverse ([`Affine::point`]), direction by its linear part
 //! ([`Affine::vector`]), **not normalized**, so a point at parameter `t` on the moved ray is the
 //! image of the world ray's point at the same `t`: `t` stays in world units and the closest hits
