@@ -229,6 +229,10 @@ impl InstancedScene<'_, '_> {
     }
 
     /// [`Self::intersect`] in `mode` (each bottom scene walked as [`Scene::intersect_in`]).
+    /// Inlined where it is called, as [`Scene::intersect_in`] is, so that the bottom walk is
+    /// compiled with the caller's code (in the core's own codegen unit a gather of the walk's
+    /// listed leaves was left out of line: a third of the speed).
+    #[inline]
     pub fn intersect_in(&self, mode: Mode, ray: &Ray) -> InstanceHit {
         let mut visit = ClosestVisit {
             mode,
@@ -240,6 +244,7 @@ impl InstancedScene<'_, '_> {
     }
 
     /// [`Self::occluded`] in `mode`.
+    #[inline]
     pub fn occluded_in(&self, mode: Mode, ray: &Ray) -> bool {
         let mut visit = AnyVisit { mode, found: false };
         self.walk(ray, &mut visit);
