@@ -20,7 +20,7 @@ secs=${1:-30}
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  targets=(from_words ply obj scene traversal exr)
+  targets=(from_words ply obj scene traversal exr instances)
 fi
 
 # -rss_limit_mb: a target that holds more than 2 GiB fails (the loaders' bound is far below).

@@ -77,6 +77,9 @@
 //! - [`description`]: the render description (camera, settings, materials, lights) that a target
 //!   reads next to the scene's words; [`words`]: bytes (`include_bytes!`, a fetch) viewed as
 //!   words without `unsafe`; [`color`]: linear radiance to 8-bit sRGB, alike on every target.
+//! - `instance` (with the `instances` feature, on by default): the top level of a scene of
+//!   many meshes — instances of bottom-level scenes placed by affine transforms, its own word
+//!   array, validation and two-level walk.
 //! - [`spawn`]: origins of rays leaving a surface, offset by its floating-point error bounds.
 //! - [`simd`]: 4- and 8-wide ray packets, the lane trait they are generic over, and the packet
 //!   kernels, which match the scalar ones lane by lane.
@@ -96,6 +99,8 @@ pub mod distance;
 pub mod far;
 pub mod format;
 pub mod group;
+#[cfg(feature = "instances")]
+pub mod instance;
 pub mod isa;
 pub mod math;
 pub mod node;

@@ -45,7 +45,8 @@
 //! Scene files (`docs/SCENE.md`) load with [`scene::load_scene`] (camera, materials, geometry);
 //! meshes with [`input::load_input`] (PLY, OBJ, `.tri`); [`progressive`] renders on all cores.
 //! Runnable programs: `cargo run --release -p kdray --example triangles` (this example with more
-//! rays) and `--example render_buffer` (a scene rendered into a buffer) in this crate,
+//! rays), `--example render_buffer` (a scene rendered into a buffer) and `--example instances`
+//! (10,000 instances of one mesh under a top level, [`instances`]) in this crate,
 //! `-p kdray-core --example trace_kdt` (a `.kdt` compiled in, traced `no_std`-style) in
 //! `kdray-core`. (`-p` keeps the crates' features those of `cargo run --release -p kdray`, so
 //! nothing is compiled again; without it cargo unifies the whole workspace's features, the
@@ -78,6 +79,7 @@ pub mod error;
 pub mod files;
 pub mod geometry;
 pub mod input;
+pub mod instances;
 pub mod load;
 pub mod memory;
 pub mod scene;

@@ -8,6 +8,9 @@ pub enum FormatError {
     /// Fewer words than the header.
     TooShort,
     BadMagic,
+    /// A top level of instances ("KDRI", `kdray_core::instance`), not a single-mesh scene: it is
+    /// opened with `InstancedScene::from_words` beside the scenes it places.
+    TopLevel,
     UnsupportedVersion(u32),
     /// CONTENTS has bits this version does not define, or disagrees with the counts/offsets.
     BadContents,
@@ -108,6 +111,11 @@ impl core::fmt::Display for FormatError {
         match self {
             Self::TooShort => write!(f, "shorter than the {HEADER_WORDS}-word header"),
             Self::BadMagic => write!(f, "not a kdray scene (bad magic)"),
+            Self::TopLevel => write!(
+                f,
+                "a top level of instances, not a single-mesh scene (open it with \
+                 `InstancedScene::from_words` and the scenes it places)"
+            ),
             Self::UnsupportedVersion(v) => {
                 write!(
                     f,

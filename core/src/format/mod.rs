@@ -6,7 +6,8 @@
 //!
 //! # Header (word index: meaning)
 //! ```text
-//!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32
+//!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32 (a top level
+//!                     of instances, "KDRI", is refused with `FormatError::TopLevel`)
 //!  1  VERSION         12 (11 could carry a blocks section, retired since; 10 cut wide nodes
 //!                     three levels down, not greedily; 9 had no wide section; 8 had no groups section; 7 stored `+inf` as the threshold of a
 //!                     triangle whose `|e1 × e2|²` overflows f32, so fast mode never hit it; 6 had
@@ -144,6 +145,10 @@ use glam::Vec3;
 
 /// "KDRY" as a little-endian word.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
+/// "KDRI": the magic of a top level of instances (`crate::instance`, with the `instances`
+/// feature), a word array of another format that names single-mesh scenes like this one; here so
+/// that [`Scene::from_words`] can say what such an array is ([`FormatError::TopLevel`]).
+pub const TOP_LEVEL_MAGIC: u32 = u32::from_le_bytes(*b"KDRI");
 /// The format version this core reads and the host writes.
 pub const VERSION: u32 = 12;
 /// Words before the first section.

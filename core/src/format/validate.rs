@@ -76,6 +76,9 @@ impl<'a> Scene<'a> {
             return Err(FormatError::TooShort);
         }
         let h = |i: usize| words[i];
+        if h(header::MAGIC) == super::TOP_LEVEL_MAGIC {
+            return Err(FormatError::TopLevel);
+        }
         if h(header::MAGIC) != MAGIC {
             return Err(FormatError::BadMagic);
         }

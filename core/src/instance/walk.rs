@@ -1,0 +1,319 @@
+//! The two-level walk: closest hit ([`InstancedScene::intersect_in`]) and any hit
+//! ([`InstancedScene::occluded_in`]) of one world ray, in fast or watertight mode.
+//!
+//! The tree over the instances is walked front to back (the nearer child first, the other
+//! pending with its entry distance and skipped once the closest hit lies before it), each box
+//! entered as the watertight walk enters the scene box ([`crate::traverse::clip_to_box_in`],
+//! both slab distances widened outward; here with the direction's reciprocals computed once a
+//! ray, `Slabs`). At an instance, the ray is moved into the bottom scene:
+//! origin by the stored inverse ([`Affine::point`]), direction by its linear part
+//! ([`Affine::vector`]), **not normalized**, so a point at parameter `t` on the moved ray is the
+//! image of the world ray's point at the same `t`: `t` stays in world units and the closest hits
+//! of different instances compare as they are. The bottom scene's own walk
+//! ([`Scene::intersect_in`], [`Scene::occluded_in`]) then runs over `(tmin, closest so far)`.
+//!
+//! One deviation from moving the direction alone: the triangle kernels' parallel test is set for
+//! unit directions (a direction of length `s` counts as parallel a ray within `PARALLEL_SIN / s`
+//! of the plane, [`crate::Ray`]), so under a scale of 10⁶ a direction of length 10⁻⁶ would miss
+//! everything. A moved direction whose largest component lies outside `[1/4, 4)` is therefore
+//! scaled by the power of two `f` that brings that component into `[1, 2)`, and the interval by
+//! `1/f`; scaling by a power of two is exact in every operation of the walks and kernels (bar
+//! underflow to subnormals), so the bottom walk returns `t/f` exactly and `t` is recovered bit
+//! for bit. Rotations and mild scales (`[1/4, 4)`) are left alone, so an identity or a
+//! translation gives the bottom walk the world ray's own direction. A moved direction whose
+//! largest component is outside `[2⁻¹²⁶, 2¹²⁶)` (a scale beyond 10³⁷) or not finite, or a moved
+//! origin that overflows, enters no instance: a miss. A world range whose ends overflow when
+//! scaled (`|tmin|` or `tmax` beyond `f32::MAX/f`, only with scales below 1/4 and ranges beyond
+//! 10³⁴) is taken as unbounded on that side by the bottom walk; closest hits are then checked
+//! against the world range again, any hit is not.
+
+use super::{Affine, InstancedScene, MAX_DEPTH, NODE_WORDS, affine_at, node, record};
+use crate::format::Scene;
+use crate::ray::{Hit, Ray};
+use crate::traverse::{Mode, widen};
+
+/// The closest hit of a ray through a top level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InstanceHit {
+    /// Distance along the world ray, in its units.
+    pub t: f32,
+    /// The primitive in the bottom scene's storage order ([`Hit::prim`]);
+    /// `bottom.input_id(prim)` is its index in the bottom mesh.
+    pub prim: u32,
+    /// Barycentric coordinates on the bottom scene's triangle ([`Hit`]).
+    pub u: f32,
+    pub v: f32,
+    /// The instance record hit ([`InstancedScene::instance`]); [`Hit::MISS_PRIM`] for a miss.
+    pub instance: u32,
+    /// The record's user id.
+    pub user_id: u32,
+}
+
+impl InstanceHit {
+    /// No hit: `t = +inf`, `prim`, `instance` and `user_id` all `0xFFFF_FFFF`.
+    pub const MISS: InstanceHit = InstanceHit {
+        t: f32::INFINITY,
+        prim: Hit::MISS_PRIM,
+        u: 0.0,
+        v: 0.0,
+        instance: Hit::MISS_PRIM,
+        user_id: Hit::MISS_PRIM,
+    };
+
+    /// True unless this is [`InstanceHit::MISS`].
+    #[inline]
+    pub fn is_hit(&self) -> bool {
+        self.instance != Hit::MISS_PRIM
+    }
+}
+
+/// `ray` moved into an instance by `inverse`, and the power of two `f` by which its `t` must be
+/// multiplied to be the world ray's (see the module doc), or `None` if it enters no instance.
+#[inline]
+pub fn into_instance(inverse: &Affine, ray: &Ray) -> Option<(Ray, f32)> {
+    let (origin, dir) = (inverse.point(ray.origin), inverse.vector(ray.dir));
+    let m = dir.abs().max_element();
+    if !(0.25..4.0).contains(&m) {
+        /// 2¹²⁶: `f` and `1/f` stay normal below it.
+        const LARGEST: f32 = f32::from_bits(253 << 23);
+        if !((f32::MIN_POSITIVE..LARGEST).contains(&m) && origin.is_finite()) {
+            return None;
+        }
+        // m = 2^e·(1.x): f = 2^e, and the direction divided by it (times 2^-e).
+        let e = ((m.to_bits() >> 23) & 0xff) as i32 - 127;
+        let f = f32::from_bits(((127 + e) as u32) << 23);
+        let inv_f = f32::from_bits(((127 - e) as u32) << 23);
+        let local = Ray {
+            origin,
+            dir: dir * inv_f,
+            tmin: ray.tmin * f,
+            tmax: ray.tmax * f,
+        };
+        return Some((local, inv_f));
+    }
+    origin.is_finite().then_some((
+        Ray {
+            origin,
+            dir,
+            ..*ray
+        },
+        1.0,
+    ))
+}
+
+/// The world ray prepared for the walk's many box tests: each direction component's reciprocal
+/// computed once, where [`crate::traverse::clip_to_box_in`] divides per box; otherwise the same
+/// arithmetic (so the same entry distances, bit for bit).
+struct Slabs {
+    origin: [f32; 3],
+    dir: [f32; 3],
+    inv: [f32; 3],
+    tmin: f32,
+}
+
+impl Slabs {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        let dir = ray.dir.to_array();
+        Self {
+            origin: ray.origin.to_array(),
+            dir,
+            inv: dir.map(|d| 1.0 / d),
+            tmin: ray.tmin,
+        }
+    }
+
+    /// The entry distance over `(tmin, tmax)` into the box stored in `b`'s first six words,
+    /// both slab distances [`widen`]ed outward, or `None` for a miss.
+    #[inline(always)]
+    fn enter(&self, b: &[u32], tmax: f32) -> Option<f32> {
+        let (mut t0, mut t1) = (self.tmin, tmax);
+        for a in 0..3 {
+            let (lo, hi) = (f32::from_bits(b[a]), f32::from_bits(b[3 + a]));
+            let (o, d, inv) = (self.origin[a], self.dir[a], self.inv[a]);
+            if d == 0.0 {
+                if o < lo || o > hi {
+                    return None;
+                }
+                continue;
+            }
+            let (mut near, mut far) = if inv.is_finite() {
+                ((lo - o) * inv, (hi - o) * inv)
+            } else {
+                // A subnormal component: divided, as `clip_to_box_in` does (`0·∞` on a face).
+                ((lo - o) / d, (hi - o) / d)
+            };
+            if near > far {
+                core::mem::swap(&mut near, &mut far);
+            }
+            t0 = t0.max(widen(near).0);
+            t1 = t1.min(widen(far).1);
+            if t0 > t1 {
+                return None;
+            }
+        }
+        Some(t0)
+    }
+}
+
+/// What the walk does with each instance it enters; returns the closest `t` so far (the walk
+/// skips a pending node entered beyond it) and whether to stop.
+trait Visit {
+    fn instance(&mut self, top: &InstancedScene, i: u32, ray: &Ray) -> (f32, bool);
+}
+
+/// The closest hit: the world ray's `tmax` shrinks to each hit found.
+struct ClosestVisit {
+    mode: Mode,
+    best: InstanceHit,
+    tmax: f32,
+}
+
+impl Visit for ClosestVisit {
+    #[inline]
+    fn instance(&mut self, top: &InstancedScene, i: u32, ray: &Ray) -> (f32, bool) {
+        let inst = &top.records[i as usize];
+        let inverse = affine_at(inst, record::INVERSE);
+        let world = ray.with_range(ray.tmin, self.tmax);
+        if let Some((local, f)) = into_instance(&inverse, &world) {
+            let bottom: &Scene = &top.bottoms[inst[record::BOTTOM] as usize];
+            let hit = bottom.intersect_in(self.mode, &local);
+            let t = hit.t * f;
+            if hit.is_hit() && t < self.tmax && t > ray.tmin {
+                self.tmax = t;
+                self.best = InstanceHit {
+                    t,
+                    prim: hit.prim,
+                    u: hit.u,
+                    v: hit.v,
+                    instance: i,
+                    user_id: inst[record::USER_ID],
+                };
+            }
+        }
+        (self.tmax, false)
+    }
+}
+
+/// Any hit: stops at the first instance that reports one.
+struct AnyVisit {
+    mode: Mode,
+    found: bool,
+}
+
+impl Visit for AnyVisit {
+    #[inline]
+    fn instance(&mut self, top: &InstancedScene, i: u32, ray: &Ray) -> (f32, bool) {
+        let inst = &top.records[i as usize];
+        let inverse = affine_at(inst, record::INVERSE);
+        if let Some((local, _)) = into_instance(&inverse, ray) {
+            let bottom: &Scene = &top.bottoms[inst[record::BOTTOM] as usize];
+            self.found = bottom.occluded_in(self.mode, &local);
+        }
+        (ray.tmax, self.found)
+    }
+}
+
+impl InstancedScene<'_, '_> {
+    /// The closest hit along the world `ray` in `(ray.tmin, ray.tmax)` over every instance, or
+    /// [`InstanceHit::MISS`], in fast mode.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> InstanceHit {
+        self.intersect_in(Mode::Fast, ray)
+    }
+
+    /// Whether any instance has a hit along `ray` in `(ray.tmin, ray.tmax)`, in fast mode.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_in(Mode::Fast, ray)
+    }
+
+    /// [`Self::intersect`] in `mode` (each bottom scene walked as [`Scene::intersect_in`]).
+    /// Inlined where it is called, as [`Scene::intersect_in`] is, so that the bottom walk is
+    /// compiled with the caller's code (in the core's own codegen unit a gather of the walk's
+    /// listed leaves was left out of line: a third of the speed).
+    #[inline]
+    pub fn intersect_in(&self, mode: Mode, ray: &Ray) -> InstanceHit {
+        let mut visit = ClosestVisit {
+            mode,
+            best: InstanceHit::MISS,
+            tmax: ray.tmax,
+        };
+        self.walk(ray, &mut visit);
+        visit.best
+    }
+
+    /// [`Self::occluded`] in `mode`.
+    #[inline]
+    pub fn occluded_in(&self, mode: Mode, ray: &Ray) -> bool {
+        let mut visit = AnyVisit { mode, found: false };
+        self.walk(ray, &mut visit);
+        visit.found
+    }
+
+    /// The front-to-back walk of the tree (see the module doc).
+    fn walk<V: Visit>(&self, ray: &Ray, visit: &mut V) {
+        if !ray.is_finite() {
+            return;
+        }
+        let mut tmax = ray.tmax;
+        let mut stack = [(0u32, 0.0f32); MAX_DEPTH];
+        let mut len = 0;
+        let slabs = Slabs::new(ray);
+        let mut current = match slabs.enter(&self.nodes[0][node::BOX..], tmax) {
+            Some(_) => 0u32,
+            None => return,
+        };
+        loop {
+            let nd: &[u32; NODE_WORDS] = &self.nodes[current as usize];
+            let count = nd[node::COUNT];
+            let mut next = None;
+            if count == 0 {
+                let (a, b) = (current + 1, nd[node::CHILD_OR_FIRST]);
+                let ta = slabs.enter(&self.nodes[a as usize][node::BOX..], tmax);
+                let tb = slabs.enter(&self.nodes[b as usize][node::BOX..], tmax);
+                next = match (ta, tb) {
+                    (Some(ta), Some(tb)) => {
+                        let (near, far, tfar) = if tb < ta { (b, a, ta) } else { (a, b, tb) };
+                        // At most one pending node per level: the depth bounds the stack.
+                        stack[len] = (far, tfar);
+                        len += 1;
+                        Some(near)
+                    }
+                    (Some(_), None) => Some(a),
+                    (None, Some(_)) => Some(b),
+                    (None, None) => None,
+                };
+            } else {
+                let first = nd[node::CHILD_OR_FIRST];
+                for i in first..first + count {
+                    let r = &self.records[i as usize];
+                    if slabs.enter(&r[record::BOX..], tmax).is_none() {
+                        continue;
+                    }
+                    let (t, stop) = visit.instance(self, i, ray);
+                    if stop {
+                        return;
+                    }
+                    tmax = t;
+                }
+            }
+            if let Some(n) = next {
+                current = n;
+                continue;
+            }
+            // The nearest pending node entered before the closest hit so far.
+            loop {
+                if len == 0 {
+                    return;
+                }
+                len -= 1;
+                let (n, t) = stack[len];
+                if !(t > tmax) {
+                    current = n;
+                    break;
+                }
+            }
+        }
+    }
+}

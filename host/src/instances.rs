@@ -1,0 +1,171 @@
+//! The top level of a scene of many meshes: meshes (bottom-level scenes, each today's word array
+//! from [`crate::flat::serialize`]) placed by affine transforms → the words of the top level that
+//! [`kdray_core::instance::InstancedScene::from_words`] validates and walks (its layout, word by
+//! word: `kdray_core::instance`).
+//!
+//! Moving instances rebuilds the top level alone: [`top_level`] reads each bottom scene's box,
+//! never its tree, and runs in `O(n log n)` for `n` instances (the tree over them is split at the
+//! median of the longest axis of its instances' centres, down to leaves of [`LEAF_MAX`]), so a
+//! frame that moves instances pays for that and not for the meshes
+//! (`cargo run --release -p kdray --example instances` times it for 10,000 instances).
+//!
+//! ```
+//! use kdray::Geometry;
+//! use kdray::build::{BuildParams, build};
+//! use kdray::glam::Vec3;
+//! use kdray::instances::{Placement, top_level};
+//! use kdray_core::instance::{Affine, InstancedScene};
+//! use kdray_core::{Ray, Scene};
+//!
+//! let geom = Geometry { triangles: vec![[Vec3::ZERO, Vec3::X, Vec3::Y]], ..Geometry::default() };
+//! let tree = build(&geom, &BuildParams::default(), None).unwrap();
+//! let mesh = kdray::flat::serialize(&tree, &geom, 0.0).unwrap();
+//! let bottoms = [Scene::from_words(&mesh).unwrap()];
+//! // Two copies: one as it is, one moved 5 along z and mirrored in x.
+//! let moved = Affine([-1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 5.0]);
+//! let placements = [
+//!     Placement { bottom: 0, transform: Affine::IDENTITY, user_id: 7 },
+//!     Placement { bottom: 0, transform: moved, user_id: 8 },
+//! ];
+//! let words = top_level(&bottoms, &placements).unwrap();
+//! let top = InstancedScene::from_words(&words, &bottoms).unwrap();
+//! let hit = top.intersect(&Ray::new(Vec3::new(-0.25, 0.25, 9.0), Vec3::NEG_Z));
+//! assert_eq!(hit.user_id, 8);
+//! assert_eq!(hit.t, 4.0);
+//! ```
+
+use glam::Vec3;
+use kdray_core::format::{Scene, seal};
+use kdray_core::instance::{
+    Affine, HEADER_WORDS, MAGIC, NODE_WORDS, RECORD_WORDS, VERSION, header, node, record,
+};
+
+/// The most instances a leaf of the tree holds.
+pub const LEAF_MAX: usize = 4;
+
+/// One instance: which bottom scene, where, and the id its hits report.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    /// Index into the bottom scenes.
+    pub bottom: u32,
+    /// Object → world.
+    pub transform: Affine,
+    /// Reported with each hit on this instance ([`kdray_core::instance::InstanceHit::user_id`]).
+    pub user_id: u32,
+}
+
+/// An instance on its way into the tree: its world box, its centre, its record.
+struct Item {
+    bounds: [Vec3; 2],
+    centre: Vec3,
+    record: [u32; RECORD_WORDS],
+}
+
+/// The words of the top level placing `bottoms` as `placements` say, records in the tree's
+/// leaf order (a hit's [`instance`](kdray_core::instance::InstanceHit::instance) indexes them;
+/// its `user_id` is the placement's).
+///
+/// # Errors
+/// No placement, more than `u32::MAX`, a bottom index out of range, a transform that is not
+/// finite or not invertible ([`Affine::inverse`]), or one that carries its bottom scene's box
+/// beyond f32: a message naming the placement.
+pub fn top_level(bottoms: &[Scene], placements: &[Placement]) -> Result<Vec<u32>, String> {
+    if placements.is_empty() {
+        return Err("a top level needs at least one instance".into());
+    }
+    u32::try_from(placements.len()).map_err(|_| "more than 2^32 - 1 instances".to_string())?;
+    let mut items = placements
+        .iter()
+        .enumerate()
+        .map(|(i, p)| item(bottoms, i, p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut nodes = Vec::with_capacity(2 * placements.len() / LEAF_MAX + 1);
+    let mut records = Vec::with_capacity(placements.len());
+    let depth = subtree(&mut items, &mut nodes, &mut records, 0);
+    let total = HEADER_WORDS + NODE_WORDS * nodes.len() + RECORD_WORDS * records.len();
+    let mut words = vec![0u32; HEADER_WORDS];
+    words.reserve(total - HEADER_WORDS);
+    words[header::MAGIC] = MAGIC;
+    words[header::VERSION] = VERSION;
+    words[header::TOTAL_WORDS] = u32::try_from(total).map_err(|_| "top level too large")?;
+    words[header::INSTANCE_COUNT] = records.len() as u32;
+    words[header::NODE_COUNT] = nodes.len() as u32;
+    words[header::BOTTOM_COUNT] = bottoms.len() as u32;
+    words[header::DEPTH] = depth;
+    // The root's box is the union of every record's box: the world bounds.
+    words[header::BOUNDS..header::BOUNDS + 6].copy_from_slice(&nodes[0][node::BOX..node::BOX + 6]);
+    words.extend(nodes.iter().flatten());
+    words.extend(records.iter().flatten());
+    seal(&mut words);
+    Ok(words)
+}
+
+/// Placement `i`'s record and box.
+fn item(bottoms: &[Scene], i: usize, p: &Placement) -> Result<Item, String> {
+    let bottom = bottoms.get(p.bottom as usize).ok_or_else(|| {
+        format!(
+            "instance {i}: bottom scene {} out of range ({} given)",
+            p.bottom,
+            bottoms.len()
+        )
+    })?;
+    let inverse = p
+        .transform
+        .inverse()
+        .ok_or_else(|| format!("instance {i}: transform is not finite or not invertible"))?;
+    let bounds = p
+        .transform
+        .world_box(bottom.bounds())
+        .ok_or_else(|| format!("instance {i}: transform carries the mesh beyond f32's range"))?;
+    let mut r = [0u32; RECORD_WORDS];
+    r[record::TRANSFORM..record::TRANSFORM + 12].copy_from_slice(&p.transform.to_words());
+    r[record::INVERSE..record::INVERSE + 12].copy_from_slice(&inverse.to_words());
+    r[record::BOTTOM] = p.bottom;
+    r[record::USER_ID] = p.user_id;
+    r[record::BOX..record::BOX + 6].copy_from_slice(&box_words(bounds));
+    Ok(Item {
+        bounds,
+        centre: (bounds[0] + bounds[1]) * 0.5,
+        record: r,
+    })
+}
+
+fn box_words(b: [Vec3; 2]) -> [u32; 6] {
+    let [lo, hi] = b;
+    [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z].map(f32::to_bits)
+}
+
+/// Appends the subtree over `items` to `nodes` in pre-order and its leaves' records to
+/// `records`; returns its depth below `depth`'s level (the deepest leaf's depth).
+fn subtree(
+    items: &mut [Item],
+    nodes: &mut Vec<[u32; NODE_WORDS]>,
+    records: &mut Vec<[u32; RECORD_WORDS]>,
+    depth: u32,
+) -> u32 {
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    let (mut clo, mut chi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for it in items.iter() {
+        (lo, hi) = (lo.min(it.bounds[0]), hi.max(it.bounds[1]));
+        (clo, chi) = (clo.min(it.centre), chi.max(it.centre));
+    }
+    let at = nodes.len();
+    let mut nd = [0u32; NODE_WORDS];
+    nd[node::BOX..node::BOX + 6].copy_from_slice(&box_words([lo, hi]));
+    if items.len() <= LEAF_MAX {
+        nd[node::CHILD_OR_FIRST] = records.len() as u32;
+        nd[node::COUNT] = items.len() as u32;
+        nodes.push(nd);
+        records.extend(items.iter().map(|it| it.record));
+        return depth;
+    }
+    nodes.push(nd);
+    let axis = (chi - clo).max_position();
+    let mid = items.len() / 2;
+    items.select_nth_unstable_by(mid, |a, b| a.centre[axis].total_cmp(&b.centre[axis]));
+    let (below, above) = items.split_at_mut(mid);
+    let d0 = subtree(below, nodes, records, depth + 1);
+    nodes[at][node::CHILD_OR_FIRST] = nodes.len() as u32;
+    let d1 = subtree(above, nodes, records, depth + 1);
+    d0.max(d1)
+}
