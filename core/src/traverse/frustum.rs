@@ -41,8 +41,8 @@ use crate::simd::watertight::ShearX;
 /// The most packets one entry-point search serves: longer tiles are split into tiles of this many.
 pub const MAX_PACKETS: usize = 8;
 
-/// Bounds on a tile's live lanes: per axis the range of their origins and reciprocal directions,
-/// and the smallest start and largest end of their intervals.
+/// Bounds on a tile's active lanes, and so on its live ones: per axis the range of their origins
+/// and reciprocal directions, and the smallest start and largest end of their intervals.
 #[derive(Clone, Copy, Debug)]
 struct Bounds {
     origin: [[f32; 2]; 3],
@@ -207,7 +207,10 @@ impl Scene<'_> {
             }
             let (tmin, tmax) = clip_packet_to_box::<C, L>(rays, self.bounds());
             *interval = (tmin, tmax);
-            let live = L::mask_from_bits(live_lanes(tmin, tmax) & active);
+            // Bounds over the active lanes, dead ones included (wider bounds, still bounds on the
+            // live lanes), so that a packet of active lanes masks nothing.
+            let full = active == (1 << L::WIDTH) - 1;
+            let keep = rays.active;
             let values = [
                 rays.origin.x,
                 rays.origin.y,
@@ -219,24 +222,29 @@ impl Scene<'_> {
                 tmax,
             ];
             for ((lo, hi), v) in lo.iter_mut().zip(&mut hi).zip(values) {
-                *lo = lo.min(live.select(v, inf));
-                *hi = hi.max(live.select(v, -inf));
+                if full {
+                    (*lo, *hi) = (lo.min(v), hi.max(v));
+                } else {
+                    *lo = lo.min(keep.select(v, inf));
+                    *hi = hi.max(keep.select(v, -inf));
+                }
             }
         }
         if (0..3).any(|k| negative[k] != 0 && positive[k] != 0) {
             return None;
         }
+        // (No lane is NaN here: plain comparisons, where `f32::min` would also handle NaN.)
         let low = |v: L| {
             v.to_array()
                 .as_ref()
                 .iter()
-                .fold(f32::INFINITY, |a, &b| a.min(b))
+                .fold(f32::INFINITY, |a, &b| if b < a { b } else { a })
         };
         let high = |v: L| {
             v.to_array()
                 .as_ref()
                 .iter()
-                .fold(f32::NEG_INFINITY, |a, &b| a.max(b))
+                .fold(f32::NEG_INFINITY, |a, &b| if b > a { b } else { a })
         };
         let range = |k: usize| [low(lo[k]), high(hi[k])];
         let bounds = Bounds {
