@@ -8,8 +8,7 @@
 # built three ways: index lists in nodes, groups in nodes, and groups with wide nodes (what
 # `kdray trace` builds by default). The rays are `kdray rays` of that scene: primary rays of a
 # 128x128 framing camera and one diffuse bounce from each primary hit. Each row traces one ray set
-# through one tree one way (`--packet 1/4/8`, `--stream`; `stream8` is `--stream --packet 8`, whose
-# camera tiles take the frustum walk), fast and watertight, on one thread,
+# through one tree one way (`--packet 1/4/8`, `--stream`), fast and watertight, on one thread,
 # with callgrind counting only the functions that trace a share of the rays (`trace_scalar_in`,
 # `trace_packets_in`, the core's `stream::intersect`): not the load, the build, the threads or
 # the writing of the hits, and no call into the C library, whose routines differ by CPU.
@@ -67,7 +66,6 @@ count() {
   local tree=$1 set=$2 way=$3 mode=$4 flags=()
   case $way in
     stream) flags=(--stream) ;;
-    stream*) flags=(--stream --packet "${way#stream}") ;;
     packet*) flags=(--packet "${way#packet}") ;;
   esac
   [ "$mode" = watertight ] && flags+=(--watertight)
@@ -91,7 +89,6 @@ rows=(
   "list diffuse packet1" "list diffuse packet4" "list diffuse packet8"
   "groups primary packet8" "groups diffuse packet8"
   "wide primary packet1" "wide primary stream" "wide diffuse packet1" "wide diffuse stream"
-  "list primary stream8" "wide primary stream8"
 )
 measured=$work/measured.tsv
 printf 'tree\trays\tway\tmode\tinstructions_per_ray\n' >"$measured"

@@ -27,6 +27,13 @@
 //! packets start with the frustum's interval, not their own). When no lane needs either child
 //! somewhere on the path, every ray of the tile misses.
 //!
+//! # What it costs
+//! The tile's bounds (a pass over its lanes), the search, and each packet's replay of the path,
+//! against the node steps the packets skip. On a camera's primary rays that does not pay: the
+//! search stops at the first plane the tile crosses, the root's in half of the tiles of a camera
+//! centred on the scene, and the packet walk's steps near the root are cheap (docs/BENCHMARKS.md,
+//! "The frustum walk: measured, not wired", has the figures). So the stream does not use it.
+//!
 //! A tile falls back to its packets' own walks ([`Scene::intersect_packet_with`]) when its active
 //! lanes span more than one octant, or, in fast mode, when a packet's tests could overflow
 //! ([`crate::simd::range`]); non-finite rays are inactive lanes, as in the packet walk.

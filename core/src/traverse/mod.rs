@@ -13,6 +13,8 @@
 //! - [`frustum`]: several coherent packets of one octant (a camera's tile of 16 to 64 rays) as one
 //!   beam ([`Scene::intersect_tile`]): an entry node found once for the tile by interval
 //!   arithmetic, from which each packet walks on as [`packet`]'s walk would, with the same hits.
+//!   Measured slower than plain packets on a camera's rays (docs/BENCHMARKS.md, "The frustum
+//!   walk: measured, not wired"), so no other walk uses it.
 //! - [`wide`]: the wide nodes (format v10's wide section): eight children a node, each with a
 //!   tight box, tested in one 8-wide slab test; [`single`] walks them on its own when the scene
 //!   has them and the `wide` feature is on.

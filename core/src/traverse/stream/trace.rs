@@ -5,9 +5,8 @@
 use super::order::{Coherence, key, origin_scale};
 use crate::format::Scene;
 use crate::ray::{Hit, Ray};
-use crate::simd::{HitPacket, Lanes, RayPacket};
+use crate::simd::{Lanes, RayPacket};
 use crate::traverse::Contents;
-use crate::traverse::frustum::MAX_PACKETS;
 use crate::traverse::steps::{Closest, Occlusion, Query};
 
 /// A query answered for a whole stream: its per-ray answer, its single-ray query and its packet
@@ -21,9 +20,6 @@ pub(crate) trait Answer {
     fn answer(query: &Self::Q) -> Self::Out;
     /// Traces a packet whose lanes are all active; `out[lane]` receives each answer.
     fn packet<C: Contents, L: Lanes>(scene: &Scene, rays: &RayPacket<L>, out: &mut [Self::Out]);
-    /// Traces a tile of packets (at most [`MAX_PACKETS`], every lane active, one octant) by the
-    /// frustum walk; `out[p * L::WIDTH + lane]` receives each answer.
-    fn tile<C: Contents, L: Lanes>(scene: &Scene, tile: &[RayPacket<L>], out: &mut [Self::Out]);
 }
 
 /// Closest hits.
@@ -49,15 +45,6 @@ impl Answer for ClosestHits {
             .intersect_packet_with::<C, L>(rays)
             .write_active(rays, out);
     }
-    #[inline(always)]
-    fn tile<C: Contents, L: Lanes>(scene: &Scene, tile: &[RayPacket<L>], out: &mut [Hit]) {
-        let mut hits = [HitPacket::<L>::miss(); MAX_PACKETS];
-        let hits = &mut hits[..tile.len().min(MAX_PACKETS)];
-        scene.intersect_tile_with::<C, L>(tile, hits);
-        for ((rays, h), out) in tile.iter().zip(hits.iter()).zip(out.chunks_mut(L::WIDTH)) {
-            h.write_active(rays, out);
-        }
-    }
 }
 
 impl Answer for AnyHits {
@@ -77,18 +64,6 @@ impl Answer for AnyHits {
         let mask = scene.occluded_packet_with::<C, L>(rays).bitmask();
         for (lane, o) in out.iter_mut().enumerate() {
             *o = mask >> lane & 1 == 1;
-        }
-    }
-    #[inline(always)]
-    fn tile<C: Contents, L: Lanes>(scene: &Scene, tile: &[RayPacket<L>], out: &mut [bool]) {
-        let mut masks = [L::splat(0.0); MAX_PACKETS];
-        let masks = &mut masks[..tile.len().min(MAX_PACKETS)];
-        scene.occluded_tile_with::<C, L>(tile, masks);
-        for (mask, out) in masks.iter().zip(out.chunks_mut(L::WIDTH)) {
-            let mask = mask.bitmask();
-            for (lane, o) in out.iter_mut().enumerate() {
-                *o = mask >> lane & 1 == 1;
-            }
         }
     }
 }
@@ -136,32 +111,19 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
     // over wide nodes, traced one by one at once.
     let alone = walks_wide(scene);
     let mut m = 0;
-    // Tiles of `TILE_PACKETS` coherent packets by the frustum walk, else packet by packet.
-    let tile = width * TILE_PACKETS;
-    for (b, block) in rays.chunks(tile).enumerate() {
-        if PACKETS
-            && TILE_PACKETS > 1
-            && block.len() == tile
-            && run_length(block.iter(), rule, max_origin2) == tile
-        {
-            trace_tile::<A, C, L>(scene, block, b * tile, out);
+    for (c, chunk) in rays.chunks(width).enumerate() {
+        if PACKETS && run_length(chunk.iter(), rule, max_origin2) == width {
+            trace_packet::<A, C, L>(scene, chunk, c * width, |i| i, out);
             continue;
         }
-        for (c, chunk) in block.chunks(width).enumerate() {
-            let first = b * tile + c * width;
-            if PACKETS && run_length(chunk.iter(), rule, max_origin2) == width {
-                trace_packet::<A, C, L>(scene, chunk, first, |i| i, out);
-                continue;
-            }
-            if alone {
-                singles::<A, C>(scene, rays, first..first + chunk.len(), out);
-                continue;
-            }
-            for (k, ray) in chunk.iter().enumerate() {
-                if let Some(slot) = scratch.get_mut(m) {
-                    *slot = [key(ray, lo, scale), (first + k) as u64];
-                    m += 1;
-                }
+        if alone {
+            singles::<A, C>(scene, rays, c * width..c * width + chunk.len(), out);
+            continue;
+        }
+        for (k, ray) in chunk.iter().enumerate() {
+            if let Some(slot) = scratch.get_mut(m) {
+                *slot = [key(ray, lo, scale), (c * width + k) as u64];
+                m += 1;
             }
         }
     }
@@ -231,28 +193,6 @@ fn run_length<'r>(
     1 + rays
         .take_while(|r| rule.admits(first, r, max_origin2))
         .count()
-}
-
-/// Packets a tile of the input holds when the stream traces it by the frustum walk
-/// ([`crate::traverse::frustum`]): consecutive coherent packets, e.g. a camera's 2×4-pixel
-/// tiles side by side.
-const TILE_PACKETS: usize = MAX_PACKETS;
-
-/// Traces `block` (`TILE_PACKETS` packets' rays, all finite, one octant) by the frustum walk;
-/// ray `i`'s answer goes to `out[base + i]`.
-#[inline(always)]
-fn trace_tile<A: Answer, C: Contents, L: Lanes>(
-    scene: &Scene,
-    block: &[Ray],
-    base: usize,
-    out: &mut [A::Out],
-) {
-    let packets: [RayPacket<L>; TILE_PACKETS] =
-        core::array::from_fn(|p| RayPacket::from_rays(block.get(p * L::WIDTH..).unwrap_or(&[])));
-    let n = block.len().div_ceil(L::WIDTH).min(TILE_PACKETS);
-    if let Some(out) = out.get_mut(base..base + block.len()) {
-        A::tile::<C, L>(scene, &packets[..n], out);
-    }
 }
 
 /// Traces `batch` (all finite) as one packet; lane `l`'s answer goes to `out[base + index(l)]`.
