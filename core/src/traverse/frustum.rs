@@ -1,13 +1,14 @@
 //! The frustum walk: a tile of coherent packets (a camera's neighbouring rays, one direction
 //! octant) starts the packet walk ([`super::packet`]) at an entry node found once for the whole
 //! tile, instead of at the root — the entry-point search of multi-level ray tracing (Reshetov,
-//! Soupikov & Hurley 2005, "Multi-Level Ray Tracing Algorithm", §3).
+//! Soupikov & Hurley 2005, "Multi-Level Ray Tracing Algorithm", SIGGRAPH: its entry-point search).
 //!
 //! # The entry-point search
 //! The tile is bounded by interval arithmetic instead of the paper's four corner rays, so that any
 //! tile of one octant qualifies (a pinhole's, a thin lens's, parallel rays): per axis the range of
-//! the live lanes' origins and of their reciprocal directions, and the range of their intervals'
-//! ends in the scene box. Down from the root, a split plane's distance `(split − o) · (1/d)` is
+//! the active lanes' origins and of their reciprocal directions, and the range of their intervals'
+//! ends in the scene box (lanes that miss the box included: wider bounds, still bounds on the
+//! lanes that matter). Down from the root, a split plane's distance `(split − o) · (1/d)` is
 //! bounded over the tile by the corners of those ranges (the product is bilinear, so its extremes
 //! lie at the corners, and f32 rounding is monotone, so each lane's rounded distance lies between
 //! the rounded corners); the bounds are [`widen`]ed as the walk widens each lane's distance
