@@ -10,6 +10,11 @@
 //! - [`packet`]: 4 or 8 rays at once ([`Scene::intersect_packet`], over [`crate::simd::Lanes`]),
 //!   Wald's coherent packet walk; for rays that share an origin region and a direction octant,
 //!   such as a camera's tiles.
+//! - [`frustum`]: several coherent packets of one octant (a camera's tile of 16 to 64 rays) as one
+//!   beam ([`Scene::intersect_tile`]): an entry node found once for the tile by interval
+//!   arithmetic, from which each packet walks on as [`packet`]'s walk would, with the same hits.
+//!   Measured slower than plain packets on a camera's rays (docs/BENCHMARKS.md, "The frustum
+//!   walk: measured, not wired"), so no other walk uses it.
 //! - [`wide`]: the wide nodes (format v10's wide section): eight children a node, each with a
 //!   tight box, tested in one 8-wide slab test; [`single`] walks them on its own when the scene
 //!   has them and the `wide` feature is on.
@@ -49,6 +54,7 @@
 //! when the closest candidate lies before its entry; so the reported hit is always the closest
 //! (the argument of pbrt-v3's `ray.tMax < tMin` test, which stops the whole walk instead).
 
+pub mod frustum;
 pub mod packet;
 pub mod single;
 pub mod steps;

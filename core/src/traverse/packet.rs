@@ -206,13 +206,32 @@ impl Scene<'_> {
         hits: &mut HitPacket<L>,
         shear: &Option<ShearX<L>>,
     ) -> u32 {
-        let original_active = rays.active;
-        let (mut tmin, mut tmax) = clip_packet_to_box::<C, L>(rays, self.bounds());
-        let live = (tmin.le(tmax) & tmin.lt(L::splat(f32::INFINITY))).bitmask() & group;
-        let mut done = 0u32; // ANY: lanes that found a hit
+        let (tmin, tmax) = clip_packet_to_box::<C, L>(rays, self.bounds());
+        let live = live_lanes(tmin, tmax) & group;
         if live == 0 {
-            return done;
+            return 0;
         }
+        self.walk_from::<C, L, ANY>(rays, group, live, hits, shear, (0, tmin, tmax))
+    }
+
+    /// [`Scene::walk_packet`] from `start`, a node and the lanes' intervals there: the root and
+    /// the lanes' intervals in the scene box, or a deeper node that the packet walk from the root
+    /// would reach with no other node pending and exactly these intervals (the frustum walk's
+    /// entry point, [`super::frustum`]). `live`: the lanes of `group` with a non-empty interval
+    /// in the box, and no hit yet. Returns, with `ANY`, the lanes that hit something.
+    #[inline(always)]
+    pub(super) fn walk_from<C: Contents, L: Lanes, const ANY: bool>(
+        &self,
+        rays: &mut RayPacket<L>,
+        group: u32,
+        live: u32,
+        hits: &mut HitPacket<L>,
+        shear: &Option<ShearX<L>>,
+        start: (u32, L, L),
+    ) -> u32 {
+        let original_active = rays.active;
+        let (mut index, mut tmin, mut tmax) = start;
+        let mut done = 0u32; // ANY: lanes that found a hit
         let is_negative = |inv: L| inv.lt(L::splat(0.0)).bitmask() & group != 0;
         let negative = [
             is_negative(rays.inv_dir.x),
@@ -223,7 +242,6 @@ impl Scene<'_> {
         let inv_dir = [rays.inv_dir.x, rays.inv_dir.y, rays.inv_dir.z];
         let group_mask = L::mask_from_bits(group);
         let mut stack: heapless::Vec<Item<L>, MAX_DEPTH> = heapless::Vec::new();
-        let mut index = 0u32;
         loop {
             // Lanes still to be served here: a non-empty interval that starts before their
             // closest hit so far (and, for occlusion, no hit yet).
@@ -307,7 +325,7 @@ impl Scene<'_> {
 /// `*rays` (scripts/icount.sh): the same instructions for fast packets, and 1.4 % fewer for
 /// watertight 8-wide packets, whose walk the plain copy compiles worse.
 #[inline(always)]
-fn copy_packet<L: Lanes>(rays: &RayPacket<L>) -> RayPacket<L> {
+pub(super) fn copy_packet<L: Lanes>(rays: &RayPacket<L>) -> RayPacket<L> {
     RayPacket {
         origin: rays.origin,
         dir: rays.dir,
@@ -324,7 +342,10 @@ fn copy_packet<L: Lanes>(rays: &RayPacket<L>) -> RayPacket<L> {
 /// counts as inside (the scalar test's closed slab). In watertight mode both distances are
 /// widened ([`crate::traverse::clip_to_box_in`]).
 #[inline(always)]
-fn clip_packet_to_box<C: Contents, L: Lanes>(rays: &RayPacket<L>, bounds: [Vec3; 2]) -> (L, L) {
+pub(super) fn clip_packet_to_box<C: Contents, L: Lanes>(
+    rays: &RayPacket<L>,
+    bounds: [Vec3; 2],
+) -> (L, L) {
     let (mut t0, mut t1) = (rays.tmin, rays.tmax);
     let inf = L::splat(f32::INFINITY);
     let widen = L::splat(2.0 * GAMMA3);
@@ -350,8 +371,14 @@ fn clip_packet_to_box<C: Contents, L: Lanes>(rays: &RayPacket<L>, bounds: [Vec3;
     (t0, t1)
 }
 
+/// The lanes whose interval `(tmin, tmax)` in the scene box is not empty (as a bit set).
+#[inline(always)]
+pub(super) fn live_lanes<L: Lanes>(tmin: L, tmax: L) -> u32 {
+    (tmin.le(tmax) & tmin.lt(L::splat(f32::INFINITY))).bitmask()
+}
+
 /// The active lanes of `rays` split by the sign octant of their directions (sign of `1/d`).
-fn sign_groups<L: Lanes>(rays: &RayPacket<L>) -> impl Iterator<Item = u32> {
+pub(super) fn sign_groups<L: Lanes>(rays: &RayPacket<L>) -> impl Iterator<Item = u32> {
     let zero = L::splat(0.0);
     let (sx, sy, sz) = (
         rays.inv_dir.x.lt(zero).bitmask(),
@@ -374,7 +401,7 @@ fn sign_groups<L: Lanes>(rays: &RayPacket<L>) -> impl Iterator<Item = u32> {
 
 /// [`crate::traverse::widen`] lane by lane: `(lo, hi)` bracketing each lane's exact distance.
 #[inline(always)]
-fn widen_lanes<L: Lanes>(t: L) -> (L, L) {
+pub(super) fn widen_lanes<L: Lanes>(t: L) -> (L, L) {
     let tiny = L::splat(TINY);
     let (a, b) = (t * L::splat(1.0 - WIDEN), t * L::splat(1.0 + WIDEN));
     (a.min(b) - tiny, a.max(b) + tiny)
