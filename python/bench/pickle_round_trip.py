@@ -17,8 +17,9 @@ travels, once:
 - **protocol 4**: the words as `bytes` in the pickle;
 - **deepcopy**: `copy.deepcopy` (shares the tree: no pickle).
 
-Printed: medians over the rounds, in milliseconds and as a share of the build's median, and
-the machine's load before and after. Every received scene is checked against the original on
+Printed: medians over the rounds, wall and CPU (this process's, every thread: steadier than the
+wall on a shared machine), in milliseconds and as a share of the build's median, and the
+machine's load before and after. Every received scene is checked against the original on
 100,000 random rays (closest hits, ray by ray) once.
 """
 
@@ -69,32 +70,35 @@ def main():
     v, f = read_tri(args.mesh)
     o, d = random_rays(v, 100_000)
     times = {"build": [], "writable copy": [], **{k: [] for k in WAYS}}
+    cpu = {k: [] for k in times}
+
+    def clock(name, f):
+        start, c = time.perf_counter(), time.process_time()
+        r = f()
+        times[name].append(time.perf_counter() - start)
+        cpu[name].append(time.process_time() - c)
+        return r
+
     for round_ in range(args.rounds):
-        start = time.perf_counter()
-        scene = kdray.Scene(v, f)
-        times["build"].append(time.perf_counter() - start)
+        scene = clock("build", lambda: kdray.Scene(v, f))
         data, buffers = prepared_writable(scene)
-        start = time.perf_counter()
-        back = pickle.loads(data, buffers=buffers)
-        times["writable copy"].append(time.perf_counter() - start)
+        back = clock("writable copy", lambda: pickle.loads(data, buffers=buffers))
         received = {"writable copy": back}
         del data, buffers
         for name, way in WAYS.items():
-            start = time.perf_counter()
-            received[name] = way(scene)
-            times[name].append(time.perf_counter() - start)
+            received[name] = clock(name, lambda: way(scene))
         if round_ == 0:
             want = scene.intersect(o, d)
             for name, r in received.items():
                 got = r.intersect(o, d)
                 assert all(np.array_equal(a, b) for a, b in zip(got[:4], want[:4])), name
         del received, back, scene
-    build = statistics.median(times["build"])
+    build, build_cpu = statistics.median(times["build"]), statistics.median(cpu["build"])
     print(f"{len(f):,} triangles; medians of {args.rounds} rounds")
-    print(f"{'':>14} {'ms':>8} {'of the build':>13}")
+    print(f"{'':>14} {'wall ms':>8} {'of the build':>13} {'CPU ms':>8} {'of the build':>13}")
     for name, ts in times.items():
-        t = statistics.median(ts)
-        print(f"{name:>14} {t * 1e3:>8.1f} {t / build:>13.1%}")
+        t, c = statistics.median(ts), statistics.median(cpu[name])
+        print(f"{name:>14} {t * 1e3:>8.1f} {t / build:>13.1%} {c * 1e3:>8.1f} {c / build_cpu:>13.1%}")
     print(f"load after: {load()}")
 
 
