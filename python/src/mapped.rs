@@ -51,10 +51,11 @@ impl core::ops::Deref for Words {
 
 /// `words` copied onto pages of their own (so on cache lines), made read-only once written.
 ///
-/// Pages of their own rather than the heap's: a tree is tens of megabytes, and faulting in that
-/// many fresh 4 KiB pages cost more than validating the words (the dragon's 56 MiB: 50–60 ms of
-/// page faults against a 10–15 ms copy on this VM); the pages are asked for as transparent huge
-/// pages where the kernel has them (Linux, `madvise` mode), one fault every 2 MiB.
+/// Pages of their own rather than the heap's, asked for as transparent huge pages where the
+/// kernel has them (Linux, `madvise` mode): a tree is tens of megabytes, and copying the dragon's
+/// 56 MiB into fresh 4 KiB pages took 65 ms on this VM, most of it page faults, against 16 ms
+/// into huge pages (one fault every 2 MiB); and a walk's scattered reads miss the TLB less on
+/// them (random rays on the dragon: about a fifth less CPU time, issue 43).
 ///
 /// # Errors
 /// The memory cannot be had.
@@ -74,8 +75,9 @@ pub fn copy(words: &[u32]) -> Result<Words, String> {
 
 /// The memory of `array` kept where it is, not copied, when nothing can change it: what owns it
 /// (following numpy's `base` and memoryviews' `obj`) is a `bytes` object or a [`Tree`] (whose
-/// words never change), and it is C-contiguous and 64-byte aligned (the wide section on cache
-/// lines, as [`copy`] puts it). `None` otherwise: the caller copies.
+/// words never change; a mapped tree's file must stay as it is, as for that tree), and it is
+/// C-contiguous and 64-byte aligned (the wide section on cache lines, as [`copy`] puts it).
+/// `None` otherwise: the caller copies.
 ///
 /// An unpickled scene in the process that pickled it (`pickle.loads` with protocol 5's buffers,
 /// as `copy` would) gets the pickled tree's own words this way, and still validates them.
