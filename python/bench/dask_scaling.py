@@ -21,10 +21,9 @@ Needs `pip install ./python[dask]` and the meshes (scripts/fetch-meshes.sh).
   two (**2 w**), `threads_per_worker=1`, the closest hits (t, prim, u, v) of every chunk
   `map_blocks`-ed and persisted on the workers (answers as dask arrays, not gathered); also this
   process with `threads=2` over the whole batch (**local 2 t**: what two cores give without Dask,
-  the reference for this machine's load). Printed: medians over the rounds. The workers run
-  without Dask's statistical profiler (`distributed.worker.profile.enabled`: it samples every
-  thread's stack every 10 ms, half the CPU time of a worker's event loop here; `--profile` keeps
-  it).
+  the reference for this machine's load). Printed: medians over the rounds. The cluster runs
+  with Dask's background work turned down (`QUIET`: no statistical profiler, slower timers;
+  `--dask-defaults` keeps Dask's).
 - Overhead a chunk: a worker's wall time outside the traced calls (w × wall − the compute time
   of the tasks, Dask's task stream: scheduling, moving and storing chunks), per chunk and as a
   share of the tasks' time; also (1 w − local) / chunks. Speed-up: 1 w / 2 w. On a machine
@@ -54,6 +53,19 @@ import numpy as np
 import kdray
 
 HIT = np.dtype([("t", "f4"), ("prim", "i8"), ("u", "f4"), ("v", "f4")])
+
+# Dask's background work, which two workers on two cores pay out of the tracing: an idle
+# two-worker LocalCluster took 9.3 % of a core with its defaults, 4.2 % with the event loops'
+# tick at 1 s (20 ms by default: it only measures how long the loop was blocked), 1.6 % with the
+# system and memory monitors at 5 s and 1 s too (100 and 500 ms by default: the dashboard's
+# figures, the memory limits' checks); the profiler samples every thread's stack every 10 ms
+# while tasks run (half a worker's event-loop time in a run).
+QUIET = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
 
 
 def make_rays(index, size, lo, hi):
@@ -146,7 +158,8 @@ def main():
     ap.add_argument("--rays", type=float, default=1e7)
     ap.add_argument("--chunks", default="1e5,2.5e5,1e6", help="chunk sizes, comma-separated")
     ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--profile", action="store_true", help="keep Dask's profiler in the workers")
+    ap.add_argument("--dask-defaults", action="store_true",
+                    help="keep Dask's profiler and timers as they are (see QUIET)")
     args = ap.parse_args()
 
     import dask.array as da
@@ -186,10 +199,10 @@ def main():
     probe = make_rays(2**32, 100_000, lo, hi)
     assert np.array_equal(closest(*probe, back), closest(*probe, scene))
 
-    if not args.profile:
+    if not args.dask_defaults:
         import dask
 
-        dask.config.set({"distributed.worker.profile.enabled": False})
+        dask.config.set(QUIET)
     clusters = {}
     for w in (1, 2):
         cluster = LocalCluster(n_workers=w, threads_per_worker=1, processes=True,
