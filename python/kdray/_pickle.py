@@ -4,8 +4,10 @@ words, as :meth:`kdray.Scene.load` does for a ``.kdt``) instead of building one.
 
 With pickle protocol 5 the words go as a :class:`pickle.PickleBuffer` over the tree's own
 memory: a ``buffer_callback`` (Dask's, for one) sends them out of band, without copying them
-into the pickle; in band they are copied into it once. The
-receiver copies them once, onto cache lines, as it validates them.
+into the pickle; in band they are copied into it once. The receiver keeps them where they are
+when nothing can change that memory and it lies on cache lines (another tree's words: a round
+trip in the process that pickled it; an aligned ``bytes`` object), else copies them once onto
+pages of their own (the writable frames a transport delivers); either way it validates them.
 
 What arrives is data from elsewhere: anything but a whole, valid tree (truncated, damaged,
 crafted, of the wrong type) is refused with a ``ValueError`` that names the problem; the
@@ -61,7 +63,7 @@ def restore(data: Any, watertight: Any, origin: Any = None) -> Any:
         raise ValueError(
             f"{_WHAT}: {view.nbytes} bytes is not a whole number of 4-byte words (truncated?)"
         )
-    # In place when aligned (the tree copies them onto cache lines as it validates them).
+    # In place when aligned; the tree keeps or copies them (src/mapped.rs) and validates them.
     words = np.require(np.frombuffer(view, dtype="<u4"), requirements="CA")
     try:
         tree = _kdray.Tree.from_words(words)

@@ -206,11 +206,17 @@ impl Tree {
         Ok(Self { owned })
     }
 
-    /// A tree from the words of a `.kdt` (validated): its bytes viewed as little-endian u32.
+    /// A tree from the words of a `.kdt` (validated): its bytes viewed as little-endian u32, kept
+    /// in place when nothing can change them (`mapped::share`), else copied.
     #[staticmethod]
     fn from_words(py: Python<'_>, words: PyReadonlyArray1<'_, u32>) -> PyResult<Self> {
-        let words = slice(&words, "data")?;
-        let owned = py.detach(|| Owned::from_words(words));
+        let owned = match mapped::share(&words)? {
+            Some(shared) => py.detach(|| Owned::validate(shared)),
+            None => {
+                let words = slice(&words, "data")?;
+                py.detach(|| Owned::from_words(words))
+            }
+        };
         Ok(Self {
             owned: owned.map_err(|e| value_error(format!("data: {e}")))?,
         })

@@ -5,14 +5,14 @@
 //! Where the words come from: a mesh built by the host library's SAH builder and serializer
 //! ([`build`]: what `kdray build` does; opened with [`Scene::from_built_words`], trusted as this
 //! process's own), a `.kdt` file or its bytes ([`Owned::from_words`]: validated), a
-//! memory-mapped `.kdt` ([`Owned::validate`]).
+//! memory-mapped `.kdt` or a Python buffer kept in place ([`Owned::validate`]).
 
 use crate::mapped::Words;
 use crate::stop::{self, Stop};
 use glam::Vec3;
 use kdray::Geometry;
 use kdray::build::{self, BuildParams, Quality};
-use kdray::flat::{self, Aligned, Layout, Leaves};
+use kdray::flat::{self, Layout, Leaves};
 use kdray_core::Scene;
 use kdray_core::format::contents;
 use self_cell::self_cell;
@@ -34,11 +34,11 @@ impl Owned {
     /// # Errors
     /// What validation finds wrong (the core's `FormatError`), or spheres.
     pub fn from_words(words: &[u32]) -> Result<Self, String> {
-        Self::validate(Words::Copied(Aligned::new(words)))
+        Self::validate(crate::mapped::copy(words)?)
     }
 
     /// [`Owned::from_words`] for words kept where they are (a mapped file's:
-    /// [`crate::mapped::map`]).
+    /// [`crate::mapped::map`]; an immutable Python buffer's: [`crate::mapped::share`]).
     ///
     /// # Errors
     /// As [`Owned::from_words`].
@@ -52,8 +52,8 @@ impl Owned {
     ///
     /// # Errors
     /// As [`Owned::from_words`] (none expected).
-    fn from_built_words(words: Aligned) -> Result<Self, String> {
-        Self::open(Words::Copied(words), true)
+    fn from_built_words(words: Words) -> Result<Self, String> {
+        Self::open(words, true)
     }
 
     fn open(words: Words, built: bool) -> Result<Self, String> {
@@ -140,8 +140,17 @@ pub fn build_geometry(geom: &Geometry, options: Options) -> Result<Owned, String
     let start = std::time::Instant::now();
     let tree = build::build(geom, &params, None)?;
     let ms = start.elapsed().as_secs_f32() * 1e3;
-    let words = flat::serialize_aligned(&tree, geom, ms, options.layout, options.leaves)?;
+    // Written straight onto pages of their own (huge pages where the kernel has them:
+    // `mapped::Fresh`), with no copy of the whole tree after it.
+    let words = flat::serialize_into(
+        &tree,
+        geom,
+        ms,
+        options.layout,
+        options.leaves,
+        crate::mapped::Fresh::new,
+    )?;
     drop(tree);
-    Owned::from_built_words(words)
+    Owned::from_built_words(words.seal()?)
         .map_err(|e| format!("the built tree does not open ({e}): please report this mesh"))
 }

@@ -57,6 +57,36 @@ def test_protocol_5_sends_the_words_out_of_band(scene):
     assert_same_answers(scene, pickle.loads(data, buffers=buffers))
 
 
+def test_the_words_out_of_band_are_kept_in_place_and_validated(scene):
+    """In the process that pickled it, the receiver keeps the tree's own (immutable) words where
+    they are instead of copying them, and still validates them."""
+    buffers = []
+    data = pickle.dumps(scene, protocol=5, buffer_callback=buffers.append)
+    back = pickle.loads(data, buffers=buffers)
+    assert back._tree is not scene._tree
+    assert np.shares_memory(kdray._kdray.words(back._tree), kdray._kdray.words(scene._tree))
+    assert_same_answers(scene, back)
+    from kdray._pickle import restore
+
+    words = kdray._kdray.words(scene._tree)
+    # In place too (64-byte aligned views of a tree's words), and refused: cut short, shifted.
+    for part in (words[:-16], words[16:]):
+        with pytest.raises(ValueError, match="a pickled kdray.Scene: not a valid kd-tree"):
+            restore(pickle.PickleBuffer(part), False)
+
+
+def test_writable_buffers_are_copied(scene):
+    """Another process receives the words in writable memory (Dask's frames): the receiver
+    copies them, so that changing that memory afterwards changes nothing."""
+    buffers = []
+    data = pickle.dumps(scene, protocol=5, buffer_callback=buffers.append)
+    raw = bytearray(buffers[0].raw())
+    back = pickle.loads(data, buffers=[raw])
+    assert not np.shares_memory(kdray._kdray.words(back._tree), np.frombuffer(raw, np.uint8))
+    raw[:] = bytes(len(raw))
+    assert_same_answers(scene, back)
+
+
 def test_the_words_view_is_read_only(scene):
     words = kdray._kdray.words(scene._tree)
     assert not words.flags.writeable

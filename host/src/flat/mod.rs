@@ -112,14 +112,33 @@ pub fn serialize_aligned(
     layout: Layout,
     leaves: Leaves,
 ) -> core::result::Result<Aligned, String> {
+    serialize_into(tree, geom, build_ms, layout, leaves, |n| {
+        Ok(Aligned::zeroed(n))
+    })
+}
+
+/// [`serialize_as`]'s words written into the buffer `alloc` makes for their number (once, with
+/// no copy after: 64-byte aligned memory, or pages of the caller's own), which it returns.
+///
+/// # Errors
+/// As [`serialize_as`]; `alloc`'s.
+pub fn serialize_into<B: core::ops::DerefMut<Target = [u32]>>(
+    tree: &Tree,
+    geom: &Geometry,
+    build_ms: f32,
+    layout: Layout,
+    leaves: Leaves,
+    alloc: impl FnOnce(usize) -> core::result::Result<B, String>,
+) -> core::result::Result<B, String> {
     let (words, wide) = sections(tree, geom, build_ms, layout, leaves)?;
     let wide_at = if wide.is_empty() {
         words.len()
     } else {
         words.len().next_multiple_of(format::LINE_WORDS)
     };
-    let mut out = Aligned::zeroed(wide_at + wide.len() * format::stride::WIDE);
+    let mut out = alloc(wide_at + wide.len() * format::stride::WIDE)?;
     out[..words.len()].copy_from_slice(&words);
+    out[words.len()..wide_at].fill(0);
     drop(words);
     out[wide_at..].copy_from_slice(wide.as_flattened());
     finish(&mut out, wide.len())?;
