@@ -136,11 +136,19 @@ pub fn serialize_into<B: core::ops::DerefMut<Target = [u32]>>(
     } else {
         words.len().next_multiple_of(format::LINE_WORDS)
     };
+    let n = words.len();
     let mut out = alloc(wide_at + wide.len() * format::stride::WIDE)?;
-    out[..words.len()].copy_from_slice(&words);
-    out[words.len()..wide_at].fill(0);
+    // Copied in runs on the pool where the tree was built (the fresh pages' faults too).
+    const RUN: usize = 4096;
+    let wide_words = wide.as_flattened();
+    par::fill(tree.parallel, &mut out[..n], RUN, |i, o| {
+        o.copy_from_slice(&words[i * RUN..][..o.len()]);
+    });
     drop(words);
-    out[wide_at..].copy_from_slice(wide.as_flattened());
+    out[n..wide_at].fill(0);
+    par::fill(tree.parallel, &mut out[wide_at..], RUN, |i, o| {
+        o.copy_from_slice(&wide_words[i * RUN..][..o.len()]);
+    });
     finish(&mut out, wide.len())?;
     Ok(out)
 }
@@ -215,103 +223,128 @@ fn sections(
         Vec::new()
     };
 
-    // Every section's words, so that they are reserved at once (the wide section, appended
-    // last, grows them once more).
-    let sections = [
-        stride::NODE * nodes.len(),
-        indices.len(),
-        stride::TRIANGLE * n_tris,
-        stride::SPHERE * geom.spheres.len(),
-        stride::NORMALS * geom.normals.as_ref().map_or(0, Vec::len),
-        stride::UVS * geom.uvs.as_ref().map_or(0, Vec::len),
-        materials.len(),
-        input_ids.as_ref().map_or(0, Vec::len),
-        stride::GROUP * groups.len(),
-    ];
-    let mut words = Vec::with_capacity(
-        HEADER_WORDS + sections.iter().map(|n| n + SECTION_ALIGN).sum::<usize>(),
-    );
-    words.resize(HEADER_WORDS, 0);
-    let section = |words: &mut Vec<u32>, slot: usize, data: &mut dyn Iterator<Item = u32>| {
-        words.resize(words.len().next_multiple_of(SECTION_ALIGN), 0);
-        words[slot] = words.len() as u32;
-        words.extend(data);
-    };
-    section(&mut words, header::NODES_OFFSET, &mut core::iter::empty());
-    let at = words.len();
-    words.resize(at + stride::NODE * nodes.len(), 0);
-    par::fill(parallel, &mut words[at..], stride::NODE, |i, out| {
-        out.copy_from_slice(&nodes[i].words());
-    });
-    if !indices.is_empty() {
-        section(
-            &mut words,
-            header::INDICES_OFFSET,
-            &mut indices.iter().copied(),
-        );
-    }
-    if c & contents::TRIANGLES != 0 {
-        section(&mut words, header::TRIS_OFFSET, &mut core::iter::empty());
-        let at = words.len();
-        words.resize(at + stride::TRIANGLE * n_tris, 0);
-        par::fill(parallel, &mut words[at..], stride::TRIANGLE, |i, out| {
-            let t = &geom.triangles[i];
-            let [a, b, c] = t.map(|v| v.to_array());
-            let threshold = Triangle::from_vertices(t[0], t[1], t[2]).min_det2();
-            for (w, v) in out
-                .iter_mut()
-                .zip(a.into_iter().chain(b).chain(c).chain([threshold]))
-            {
-                *w = v.to_bits();
-            }
-        });
-    }
-    if c & contents::SPHERES != 0 {
-        let mut it = geom
-            .spheres
-            .iter()
-            .flat_map(|(ctr, r)| [ctr.x, ctr.y, ctr.z, *r])
-            .map(f32::to_bits);
-        section(&mut words, header::SPHERES_OFFSET, &mut it);
-    }
-    if let Some(normals) = geom.normals.as_ref().filter(|_| c & contents::NORMALS != 0) {
-        let mut it = normals
-            .iter()
-            .flatten()
-            .flat_map(|v| v.to_array())
-            .map(f32::to_bits);
-        section(&mut words, header::NORMALS_OFFSET, &mut it);
-    }
-    if let Some(uvs) = geom.uvs.as_ref().filter(|_| c & contents::UVS != 0) {
-        let mut it = uvs
-            .iter()
-            .flatten()
-            .flat_map(|v| v.to_array())
-            .map(f32::to_bits);
-        section(&mut words, header::UVS_OFFSET, &mut it);
-    }
-    if c & contents::MATERIALS != 0 {
-        section(
-            &mut words,
-            header::MATERIALS_OFFSET,
-            &mut materials.iter().copied(),
-        );
-    }
-    if let Some(ids) = input_ids.filter(|_| n_tris > 0) {
+    let normals = geom.normals.as_ref().filter(|_| c & contents::NORMALS != 0);
+    let uvs = geom.uvs.as_ref().filter(|_| c & contents::UVS != 0);
+    let ids = input_ids.as_deref().filter(|_| n_tris > 0);
+    if ids.is_some() {
         c |= contents::INPUT_IDS;
-        section(
-            &mut words,
-            header::INPUT_IDS_OFFSET,
-            &mut ids.iter().copied(),
-        );
     }
     if !groups.is_empty() {
         c |= contents::GROUPS;
-        section(
-            &mut words,
+    }
+    // Where each section goes (header slot, words, whether the scene has it), in file order;
+    // the words are then allocated at once, zero (fresh pages, which the writers below touch
+    // first, on the pool where they run there), and each section written in place.
+    let plan = [
+        (header::NODES_OFFSET, stride::NODE * nodes.len(), true),
+        (header::INDICES_OFFSET, indices.len(), !indices.is_empty()),
+        (
+            header::TRIS_OFFSET,
+            stride::TRIANGLE * n_tris,
+            c & contents::TRIANGLES != 0,
+        ),
+        (
+            header::SPHERES_OFFSET,
+            stride::SPHERE * geom.spheres.len(),
+            c & contents::SPHERES != 0,
+        ),
+        (
+            header::NORMALS_OFFSET,
+            stride::NORMALS * normals.map_or(0, Vec::len),
+            normals.is_some(),
+        ),
+        (
+            header::UVS_OFFSET,
+            stride::UVS * uvs.map_or(0, Vec::len),
+            uvs.is_some(),
+        ),
+        (
+            header::MATERIALS_OFFSET,
+            materials.len(),
+            c & contents::MATERIALS != 0,
+        ),
+        (
+            header::INPUT_IDS_OFFSET,
+            ids.map_or(0, <[u32]>::len),
+            ids.is_some(),
+        ),
+        (
             header::GROUPS_OFFSET,
-            &mut groups.as_flattened().iter().copied(),
+            stride::GROUP * groups.len(),
+            !groups.is_empty(),
+        ),
+    ];
+    let mut at = HEADER_WORDS;
+    let spans = plan.map(|(_, len, present)| {
+        if !present {
+            return 0..0;
+        }
+        at = at.next_multiple_of(SECTION_ALIGN);
+        at += len;
+        at - len..at
+    });
+    let mut words = vec![0u32; at];
+    for ((slot, _, present), span) in plan.iter().zip(&spans) {
+        if *present {
+            words[*slot] = span.start as u32;
+        }
+    }
+    let [
+        nodes_at,
+        indices_at,
+        tris_at,
+        spheres_at,
+        normals_at,
+        uvs_at,
+        materials_at,
+        ids_at,
+        groups_at,
+    ] = spans;
+    par::fill(parallel, &mut words[nodes_at], stride::NODE, |i, out| {
+        out.copy_from_slice(&nodes[i].words());
+    });
+    words[indices_at].copy_from_slice(&indices);
+    par::fill(parallel, &mut words[tris_at], stride::TRIANGLE, |i, out| {
+        let t = &geom.triangles[i];
+        let [a, b, c] = t.map(|v| v.to_array());
+        let threshold = Triangle::from_vertices(t[0], t[1], t[2]).min_det2();
+        for (w, v) in out
+            .iter_mut()
+            .zip(a.into_iter().chain(b).chain(c).chain([threshold]))
+        {
+            *w = v.to_bits();
+        }
+    });
+    let bits = |out: &mut [u32], values: &mut dyn Iterator<Item = f32>| {
+        for (w, v) in out.iter_mut().zip(values) {
+            *w = v.to_bits();
+        }
+    };
+    bits(
+        &mut words[spheres_at],
+        &mut geom
+            .spheres
+            .iter()
+            .flat_map(|(ctr, r)| [ctr.x, ctr.y, ctr.z, *r]),
+    );
+    if let Some(normals) = normals {
+        bits(
+            &mut words[normals_at],
+            &mut normals.iter().flatten().flat_map(|v| v.to_array()),
         );
+    }
+    if let Some(uvs) = uvs {
+        bits(
+            &mut words[uvs_at],
+            &mut uvs.iter().flatten().flat_map(|v| v.to_array()),
+        );
+    }
+    words[materials_at].copy_from_slice(&materials);
+    if let Some(ids) = ids {
+        words[ids_at].copy_from_slice(ids);
+    }
+    words[groups_at].copy_from_slice(groups.as_flattened());
+    if !groups.is_empty() {
         words[header::GROUP_COUNT] = groups.len() as u32;
     }
     let total =
