@@ -407,20 +407,32 @@ impl<'a> Scene<'a> {
         let row = |j: usize| ids.get(j).map_or(&PAD, |&id| &self.tris[id as usize]);
         let rows = [row(0), row(1), row(2), row(3)];
         // Columns 0..4, 4..8 and 8..10 of the four rows, each chunk transposed in registers:
-        // vector m holds word m of the four rows, the group's words 4m..4m+4.
+        // vector m holds word m of the four rows, the group's words 4m..4m+4. (No `array::map`
+        // here: where it was not inlined, as when the core's code units grew, a single-ray
+        // stream of the dragon's random rays took twice the time copying its arrays.)
+        let column = |r: &[f32; stride::TRIANGLE], at: usize| {
+            let mut c = [0.0; 4];
+            let n = (stride::TRIANGLE - at).min(4);
+            c[..n].copy_from_slice(&r[at..at + n]);
+            f32x4::new(c)
+        };
         let chunk = |at: usize| {
-            f32x4::transpose(rows.map(|r| {
-                let mut c = [0.0; 4];
-                let n = (stride::TRIANGLE - at).min(4);
-                c[..n].copy_from_slice(&r[at..at + n]);
-                f32x4::new(c)
-            }))
+            f32x4::transpose([
+                column(rows[0], at),
+                column(rows[1], at),
+                column(rows[2], at),
+                column(rows[3], at),
+            ])
         };
         let mut g = [0u32; group::GROUP_WORDS];
         let words = chunk(0).into_iter().chain(chunk(4)).chain(chunk(8));
         for (m, v) in words.take(stride::TRIANGLE).enumerate() {
-            let lanes = v.to_array().map(f32::to_bits);
-            g[group::WIDTH * m..group::WIDTH * (m + 1)].copy_from_slice(&lanes);
+            for (w, x) in g[group::WIDTH * m..group::WIDTH * (m + 1)]
+                .iter_mut()
+                .zip(v.to_array())
+            {
+                *w = x.to_bits();
+            }
         }
         for j in 0..group::WIDTH {
             g[group::slot::IDS + j] = ids.get(j).copied().unwrap_or(group::PAD_ID);
