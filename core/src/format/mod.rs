@@ -410,29 +410,25 @@ impl<'a> Scene<'a> {
         // vector m holds word m of the four rows, the group's words 4m..4m+4. (No `array::map`
         // here: where it was not inlined, as when the core's code units grew, a single-ray
         // stream of the dragon's random rays took twice the time copying its arrays.)
-        let column = |r: &[f32; stride::TRIANGLE], at: usize| {
-            let mut c = [0.0; 4];
-            let n = (stride::TRIANGLE - at).min(4);
-            c[..n].copy_from_slice(&r[at..at + n]);
-            f32x4::new(c)
+        let t4 = |at: usize| {
+            let c =
+                |r: &[f32; stride::TRIANGLE]| f32x4::new([r[at], r[at + 1], r[at + 2], r[at + 3]]);
+            f32x4::transpose([c(rows[0]), c(rows[1]), c(rows[2]), c(rows[3])])
         };
-        let chunk = |at: usize| {
-            f32x4::transpose([
-                column(rows[0], at),
-                column(rows[1], at),
-                column(rows[2], at),
-                column(rows[3], at),
-            ])
-        };
+        let c2 = |r: &[f32; stride::TRIANGLE]| f32x4::new([r[8], r[9], 0.0, 0.0]);
+        let t2 = f32x4::transpose([c2(rows[0]), c2(rows[1]), c2(rows[2]), c2(rows[3])]);
         let mut g = [0u32; group::GROUP_WORDS];
-        let words = chunk(0).into_iter().chain(chunk(4)).chain(chunk(8));
-        for (m, v) in words.take(stride::TRIANGLE).enumerate() {
-            for (w, x) in g[group::WIDTH * m..group::WIDTH * (m + 1)]
-                .iter_mut()
-                .zip(v.to_array())
-            {
-                *w = x.to_bits();
-            }
+        let (a, b) = (t4(0), t4(4));
+        let vectors = [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], t2[0], t2[1]];
+        for (m, v) in vectors.iter().enumerate() {
+            let x = v.to_array();
+            let w = group::WIDTH * m;
+            (g[w], g[w + 1], g[w + 2], g[w + 3]) = (
+                x[0].to_bits(),
+                x[1].to_bits(),
+                x[2].to_bits(),
+                x[3].to_bits(),
+            );
         }
         for j in 0..group::WIDTH {
             g[group::slot::IDS + j] = ids.get(j).copied().unwrap_or(group::PAD_ID);

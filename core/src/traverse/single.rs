@@ -45,13 +45,20 @@ impl Scene<'_> {
 
     /// [`Scene::intersect`] for a fixed [`Contents`]; the caller promises the scene holds no other
     /// kind of primitive (it would be tested as the wrong kind, never out of bounds).
+    ///
+    /// Never inlined: a walk is large, a call per ray costs nothing beside it, and inlined into
+    /// [`Scene::intersect_in`] with its other modes' walks LLVM kept the listed leaves' gathered
+    /// groups in memory — up to 15 % more instructions a ray (scripts/icount.sh), which came and
+    /// went with unrelated changes to the calling crate.
+    #[inline(never)]
     pub fn intersect_with<C: Contents>(&self, ray: &Ray) -> Hit {
         let mut query = Closest::new::<C>(ray);
         self.walk::<C, _>(ray, &mut query);
         query.hit()
     }
 
-    /// [`Scene::occluded`] for a fixed [`Contents`].
+    /// [`Scene::occluded`] for a fixed [`Contents`]; never inlined, as [`Scene::intersect_with`].
+    #[inline(never)]
     pub fn occluded_with<C: Contents>(&self, ray: &Ray) -> bool {
         let mut query = Occlusion::new::<C>(ray);
         self.walk::<C, _>(ray, &mut query);
