@@ -100,25 +100,8 @@ pub fn serialize_as(
     Ok(words)
 }
 
-/// [`serialize_as`]'s words written once, 64-byte aligned ([`Aligned`]): what a caller that
-/// traces them at once wants, without a copy into aligned memory.
-///
-/// # Errors
-/// As [`serialize_as`].
-pub fn serialize_aligned(
-    tree: &Tree,
-    geom: &Geometry,
-    build_ms: f32,
-    layout: Layout,
-    leaves: Leaves,
-) -> core::result::Result<Aligned, String> {
-    serialize_into(tree, geom, build_ms, layout, leaves, |n| {
-        Ok(Aligned::zeroed(n))
-    })
-}
-
-/// [`serialize_as`]'s words written into the buffer `alloc` makes for their number (once, with
-/// no copy after: 64-byte aligned memory, or pages of the caller's own), which it returns.
+/// [`serialize_as`]'s words written into the buffer `alloc` makes for their number, exactly
+/// that many words (once, with no copy after: the Python package's own pages), which it returns.
 ///
 /// # Errors
 /// As [`serialize_as`]; `alloc`'s.
@@ -438,23 +421,11 @@ pub struct Aligned {
 impl Aligned {
     /// A 64-byte aligned copy of `words`.
     pub fn new(words: &[u32]) -> Self {
-        let mut a = Self::zeroed(words.len());
-        a.copy_from_slice(words);
-        a
-    }
-
-    /// `n` zero words, 64-byte aligned.
-    fn zeroed(n: usize) -> Self {
-        let mut buf = vec![0u32; n + 15];
+        let mut buf = vec![0u32; words.len() + 15];
         let start = (64 - buf.as_ptr() as usize % 64) % 64 / 4;
-        buf.truncate(start + n);
+        buf[start..start + words.len()].copy_from_slice(words);
+        buf.truncate(start + words.len());
         Self { buf, start }
-    }
-}
-
-impl core::ops::DerefMut for Aligned {
-    fn deref_mut(&mut self) -> &mut [u32] {
-        &mut self.buf[self.start..]
     }
 }
 
