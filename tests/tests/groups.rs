@@ -3,7 +3,8 @@
 //! exactly the hits of the same tree stored with an index list, for every walk (one ray over
 //! nodes or wide nodes, stream, packets), closest and any hit, fast and watertight; validation rebuilds
 //! each group and refuses any other; the serializer refuses groups for a scene with spheres; a
-//! listed leaf's triangles, gathered four at a time for the same kernels, make the same groups.
+//! listed leaf's triangles, gathered four at a time for the same kernels, make the same groups;
+//! two groups tested at once in eight lanes pick what testing their triangles in order keeps.
 
 use glam::Vec3;
 use kdray::Geometry;
@@ -11,7 +12,9 @@ use kdray::build::{BuildParams, build};
 use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::format::{FormatError, contents, header, seal};
 use kdray_core::group::{self, GROUP_WORDS, PAD_ID, slot};
-use kdray_core::simd::group::{closest_in_group, intersect_group, intersect_group_watertight};
+use kdray_core::simd::group::{
+    Pair, closest_in_group, intersect_group, intersect_group_watertight,
+};
 use kdray_core::simd::{HitPacket, RayPacket, f32x8};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config, Packets};
@@ -116,6 +119,52 @@ proptest! {
         let key = |h: Option<(f32, f32, f32, u32)>| h.map(|(t, u, v, id)| (t.to_bits(), u.to_bits(), v.to_bits(), id));
         prop_assert_eq!(key(closest_in_group(&g, &fast)), key(want_fast));
         prop_assert_eq!(key(closest_in_group(&g, &tight)), key(want_tight));
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(kdray_tests::cases(2000)))]
+
+    /// Two groups in the eight lanes ([`Pair`]) keep the hit that testing their triangles one
+    /// after another keeps (the second group's lanes only where strictly nearer), both modes, bit
+    /// for bit, including ties between the groups (a triangle repeated in both).
+    #[test]
+    fn a_pair_of_groups_keeps_the_sequential_hit(
+        tris in prop::collection::vec(lane_triangle(), 5..=8),
+        repeat in any::<bool>(),
+        ray in traversal_ray(),
+    ) {
+        let mut tris = tris;
+        if repeat {
+            tris[4] = tris[0];
+        }
+        let lanes = lanes_of(&tris);
+        let (g0, g1) = (group::pack(&lanes[..4]), group::pack(&lanes[4..]));
+        let shear = Shear::new(ray.dir);
+        let (mut want_fast, mut want_tight) = (None, None);
+        let mut seq = [ray; 2];
+        for &(id, v, min_det2) in &lanes {
+            let tri = Triangle::from_vertices(v[0], v[1], v[2]);
+            if let Some((t, u, w)) = tri.intersect_prepared(&seq[0], min_det2) {
+                seq[0].tmax = t;
+                want_fast = Some((t, u, w, id));
+            }
+            if let Some((t, u, w)) = intersect_sheared(&v, min_det2, &seq[1], &shear) {
+                seq[1].tmax = t;
+                want_tight = Some((t, u, w, id));
+            }
+        }
+        let pair = Pair(&g0, &g1);
+        let fast = intersect_group(pair, &ray);
+        let tight = intersect_group_watertight(pair, &ray, &shear);
+        let key = |h: Option<(f32, f32, f32, u32)>| h.map(|(t, u, v, id)| (t.to_bits(), u.to_bits(), v.to_bits(), id));
+        prop_assert_eq!(key(closest_in_group(pair, &fast)), key(want_fast));
+        prop_assert_eq!(key(closest_in_group(pair, &tight)), key(want_tight));
+        // The any-hit query's answer: some triangle hits the ray as given.
+        let hits = |f: &dyn Fn(&[Vec3; 3], f32) -> bool| lanes.iter().any(|(_, v, m)| f(v, *m));
+        let tri = |v: &[Vec3; 3]| Triangle::from_vertices(v[0], v[1], v[2]);
+        prop_assert_eq!(fast.mask.any(), hits(&|v, m| tri(v).intersect_prepared(&ray, m).is_some()));
+        prop_assert_eq!(tight.mask.any(), hits(&|v, m| intersect_sheared(v, m, &ray, &shear).is_some()));
     }
 }
 

@@ -14,10 +14,9 @@
 
 use super::{Contents, entry_interval, entry_with_slack, widen};
 use crate::format::{LeafPrims, MAX_DEPTH, Scene};
-use crate::group::{Group, WIDTH};
+use crate::group::WIDTH;
 use crate::ray::{Hit, Ray};
-use crate::simd::f32x4;
-use crate::simd::group::{closest_in_group, intersect_group_watertight};
+use crate::simd::group::{GroupLanes, Pair, closest_in_group, intersect_group_watertight};
 use crate::simd::kernels::PrimHits;
 use crate::watertight::{self, Shear};
 use glam::Vec3;
@@ -63,15 +62,27 @@ impl Query for Closest {
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
         if C::GROUPS {
             if let LeafPrims::Groups(groups) = prims {
-                for g in groups {
-                    self.group::<C>(g);
+                // Two groups at a time in the eight lanes, the last one alone.
+                let mut pairs = groups.chunks_exact(2);
+                for p in &mut pairs {
+                    self.group::<C, _>(Pair(&p[0], &p[1]));
+                }
+                if let [g] = pairs.remainder() {
+                    self.group::<C, _>(g);
                 }
                 return (self.query.tmax, false);
             }
             if let LeafPrims::Many(ids) = prims {
-                // A listed leaf's triangles four at a time, gathered from the triangles section.
-                for ids in ids.chunks(WIDTH) {
-                    self.group::<C>(&scene.gather_group(ids));
+                // A listed leaf's triangles gathered from the triangles section, eight at a
+                // time in two groups, the last four or fewer in one.
+                for ids in ids.chunks(2 * WIDTH) {
+                    if ids.len() > WIDTH {
+                        let (a, b) = ids.split_at(WIDTH);
+                        let (a, b) = (scene.gather_group(a), scene.gather_group(b));
+                        self.group::<C, _>(Pair(&a, &b));
+                    } else {
+                        self.group::<C, _>(&scene.gather_group(ids));
+                    }
                 }
                 return (self.query.tmax, false);
             }
@@ -81,10 +92,10 @@ impl Query for Closest {
 }
 
 impl Closest {
-    /// The four triangles of `g`.
+    /// The triangles of `g`: a group, or a pair of groups.
     #[inline(always)]
-    fn group<C: Contents>(&mut self, g: &Group) {
-        let found = intersect_group::<C>(g, &self.query, &self.shear);
+    fn group<C: Contents, G: GroupLanes>(&mut self, g: G) {
+        let found = intersect_group::<C, _>(g, &self.query, &self.shear);
         if let Some((t, u, v, prim)) = closest_in_group(g, &found) {
             self.query.tmax = t;
             self.best = Hit { t, prim, u, v };
@@ -138,16 +149,28 @@ impl Query for Occlusion {
         let (ray, shear) = (&self.ray, &self.shear);
         if C::GROUPS {
             if let LeafPrims::Groups(groups) = prims {
-                self.found = groups
+                let mut pairs = groups.chunks_exact(2);
+                self.found = pairs.any(|p| {
+                    intersect_group::<C, _>(Pair(&p[0], &p[1]), ray, shear)
+                        .mask
+                        .any()
+                }) || pairs
+                    .remainder()
                     .iter()
-                    .any(|g| intersect_group::<C>(g, ray, shear).mask.any());
+                    .any(|g| intersect_group::<C, _>(g, ray, shear).mask.any());
                 return (self.ray.tmax, self.found);
             }
             if let LeafPrims::Many(ids) = prims {
-                self.found = ids.chunks(WIDTH).any(|ids| {
-                    intersect_group::<C>(&scene.gather_group(ids), ray, shear)
-                        .mask
-                        .any()
+                self.found = ids.chunks(2 * WIDTH).any(|ids| {
+                    if ids.len() > WIDTH {
+                        let (a, b) = ids.split_at(WIDTH);
+                        let (a, b) = (scene.gather_group(a), scene.gather_group(b));
+                        intersect_group::<C, _>(Pair(&a, &b), ray, shear).mask.any()
+                    } else {
+                        intersect_group::<C, _>(&scene.gather_group(ids), ray, shear)
+                            .mask
+                            .any()
+                    }
                 });
                 return (self.ray.tmax, self.found);
             }
@@ -352,9 +375,10 @@ impl Scene<'_> {
     }
 }
 
-/// One ray against a group of four triangles in `C`'s mode ([`crate::simd::group`]).
+/// One ray against a group of four triangles, or a [`Pair`] of groups, in `C`'s mode
+/// ([`crate::simd::group`]).
 #[inline(always)]
-fn intersect_group<C: Contents>(g: &Group, ray: &Ray, shear: &Shear) -> PrimHits<f32x4> {
+fn intersect_group<C: Contents, G: GroupLanes>(g: G, ray: &Ray, shear: &Shear) -> PrimHits<G::L> {
     if C::WATERTIGHT {
         intersect_group_watertight(g, ray, shear)
     } else {
