@@ -141,12 +141,14 @@ _Transforms = Optional[npt.ArrayLike]
 
 class Instances:
     watertight: bool
+    merge: bool
     def __init__(
         self,
         meshes: Iterable[_Mesh] = ...,
         transforms: Optional[Iterable[_Transforms]] = None,
         *,
         watertight: bool = False,
+        merge: bool = False,
         threads: Optional[int] = None,
         layout: Layout = "wide",
         leaves: Leaves = "list",

@@ -15,12 +15,13 @@ from typing import Any, Dict, Iterable, List, NamedTuple, Optional, Tuple
 
 import numpy as np
 
-from . import Scene, _batch, _flag, _kdray, _threads
+from . import Scene, _batch, _build_options, _flag, _kdray, _threads
 
 __all__ = ["Instances", "InstanceHits"]
 
 _F32_MAX = float(np.finfo(np.float32).max)
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+_IDENTITY = np.eye(3, 4, dtype=np.float32)
 
 
 class InstanceHits(NamedTuple):
@@ -113,6 +114,13 @@ class Instances:
     - ``watertight``: the walks' triangle test, as :class:`kdray.Scene`'s (the meshes' own
       ``watertight`` is not used); a mesh's ``origin``, if it has one, is folded into its
       transforms.
+    - ``merge``: where every mesh is placed once, by the identity (and has no ``origin``), trace
+      one tree over all their triangles instead of the two-level walk: the same answers, bit
+      for bit, two to three times faster on 100 meshes (the package README, "Scenes of many
+      meshes"), for a build over every triangle (their stored float32 vertices, with the build
+      options) on the first query after each change — adding, removing or moving a mesh then
+      rebuilds that one tree. Otherwise (other placements) the two-level walk answers;
+      ``info['merged']`` says which.
 
     Where every transform is the identity or a translation whose sums are exact in float32,
     the answers are bit for bit those of one :class:`kdray.Scene` over all the meshes'
@@ -133,11 +141,15 @@ class Instances:
         transforms: Optional[Iterable[Any]] = None,
         *,
         watertight: bool = False,
+        merge: bool = False,
         threads: Optional[int] = None,
         **build_options: str,
     ) -> None:
         self.watertight = _flag(watertight, "watertight")
+        self.merge = _flag(merge, "merge")
+        _build_options(build_options)  # refused here, whether or not a mesh is built
         self._opts: Dict[str, Any] = dict(build_options, threads=_threads(threads))
+        self._merged: Any = None
         self._meshes: Dict[int, Scene] = {}
         self._transforms: Dict[int, np.ndarray] = {}
         self._next = 0
@@ -189,6 +201,42 @@ class Instances:
             np.concatenate(instance),
         )
 
+    def _mergeable(self) -> bool:
+        """Whether ``merge`` applies now: every mesh placed once, by the identity, no origin."""
+        return self.merge and bool(self._meshes) and all(
+            len(m) == 1 and np.array_equal(m[0], _IDENTITY) and self._meshes[g].origin is None
+            for g, m in self._transforms.items()
+        )
+
+    def _one_tree(self) -> Any:
+        """``(scene, first triangles, geometry ids)`` of the merged tree where ``merge``
+        applies (built on first use after a change), else ``None``."""
+        if self._merged is None:
+            self._merged = False
+            if self._mergeable():
+                ids = sorted(self._meshes)
+                opts = _build_options({k: v for k, v in self._opts.items() if k != "threads"})
+                tree = _kdray.merge(
+                    [self._meshes[g]._tree for g in ids],
+                    opts["layout"], opts["leaves"], opts["quality"], self._opts["threads"],
+                )
+                counts = [self._meshes[g].info["triangles"] for g in ids]
+                self._merged = (
+                    Scene._wrap(tree, self.watertight),
+                    np.cumsum([0] + counts),
+                    np.array(ids, dtype=np.int64),
+                )
+        return self._merged or None
+
+    @staticmethod
+    def _ids(merged: Any, prim: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A merged tree's triangles as ``(geometry_id, prim, instance_id)``."""
+        _, first, ids = merged
+        hit = prim >= 0
+        k = np.clip(np.searchsorted(first, prim, side="right") - 1, 0, len(ids) - 1)
+        return (np.where(hit, ids[k], -1), np.where(hit, prim - first[k], -1),
+                np.where(hit, 0, -1))
+
     def _geometry(self, geometry_id: Any) -> int:
         try:
             g = operator.index(geometry_id)
@@ -211,6 +259,7 @@ class Instances:
         meshes[g], trans[g] = scene, m
         self._top = self._build(meshes, trans)
         self._meshes, self._transforms, self._next = meshes, trans, g + 1
+        self._merged = None
         return g
 
     def remove_mesh(self, geometry_id: int) -> None:
@@ -220,6 +269,7 @@ class Instances:
         del meshes[g], trans[g]
         self._top = self._build(meshes, trans)
         self._meshes, self._transforms = meshes, trans
+        self._merged = None
 
     def set_transforms(self, geometry_id: int, transforms: Any) -> None:
         """Places mesh ``geometry_id`` anew (``transforms`` as in the constructor; the number of
@@ -229,6 +279,7 @@ class Instances:
         trans[g] = _placements(transforms, g)
         self._top = self._build(self._meshes, trans)
         self._transforms = trans
+        self._merged = None
 
     def transforms(self, geometry_id: int) -> np.ndarray:
         """Mesh ``geometry_id``'s placements as ``(k, 4, 4)`` float64 (the float32 values
@@ -255,8 +306,8 @@ class Instances:
     @property
     def info(self) -> dict:
         """``meshes``, ``instances``, ``triangles`` (of every placement), the top level's
-        ``nodes``, ``depth`` and ``bytes``, and the world ``bounds`` (``None`` when nothing is
-        placed)."""
+        ``nodes``, ``depth`` and ``bytes``, the world ``bounds`` (``None`` when nothing is
+        placed), and ``merged``: whether rays go through one merged tree (``merge``)."""
         top = {} if self._top is None else self._top.info()
         return {
             "meshes": len(self._meshes),
@@ -268,12 +319,13 @@ class Instances:
             "depth": top.get("depth", 0),
             "bytes": top.get("bytes", 0),
             "bounds": top.get("bounds"),
+            "merged": self._mergeable(),
         }
 
     def __repr__(self) -> str:
         return (
             f"kdray.Instances({len(self._meshes)} meshes, {len(self)} instances, "
-            f"watertight={self.watertight})"
+            f"watertight={self.watertight}, merge={self.merge})"
         )
 
     def __reduce__(self) -> Tuple[Any, Tuple[Any, ...]]:
@@ -286,6 +338,7 @@ class Instances:
             [self._transforms[g] for g in ids],
             self._next,
             self.watertight,
+            self.merge,
         )
 
     # -- rays -----------------------------------------------------------------------------------
@@ -304,6 +357,13 @@ class Instances:
         """The closest hit of each ray ``origin + t·direction``, ``tmin < t < tmax``, over every
         placement of every mesh: :class:`InstanceHits` of the batch's shape (arguments as
         :meth:`kdray.Scene.intersect`)."""
+        merged = self._one_tree()
+        if merged is not None:
+            h = merged[0].intersect(
+                origins, directions, tmin, tmax, points=points, normals=normals, threads=threads
+            )
+            g, prim, i = self._ids(merged, h.prim)
+            return InstanceHits(h.t, prim, h.u, h.v, g, i, h.points, h.normals)
         b = _batch(origins, directions, tmin, tmax)
         points, normals = _flag(points, "points"), _flag(normals, "normals")
         threads = _threads(threads)
@@ -353,6 +413,11 @@ class Instances:
         for name, x in (("origin", origin), ("direction", direction)):
             if np.shape(x) != (3,):
                 raise TypeError(f"{name} must be 3 numbers, not {x!r}")
+        merged = self._one_tree()
+        if merged is not None:
+            t, prim, u, v = merged[0].raycast(origin, direction, tmin, tmax)
+            g, prim, i = (int(x) for x in self._ids(merged, np.array(prim)))
+            return (t, prim, u, v, g, i)
         try:
             return self._top.raycast(origin, direction, tmin, tmax, self.watertight)
         except (TypeError, ValueError):
@@ -371,6 +436,9 @@ class Instances:
     ) -> np.ndarray:
         """Whether any placed triangle lies along each ray in ``(tmin, tmax)``: a bool array
         (arguments as :meth:`intersect`)."""
+        merged = self._one_tree()
+        if merged is not None:
+            return merged[0].occluded(origins, directions, tmin, tmax, threads=threads)
         b = _batch(origins, directions, tmin, tmax)
         threads = _threads(threads)
         if self._top is None:
@@ -385,6 +453,7 @@ def _restore(
     transforms: List[np.ndarray],
     next_id: int,
     watertight: bool,
+    merge: bool = False,
 ) -> Instances:
     """The scene :meth:`Instances.__reduce__` pickled (the meshes validated as they unpickled)."""
     if not (
@@ -396,6 +465,8 @@ def _restore(
         raise ValueError("a pickled kdray.Instances: its meshes, ids and transforms do not match")
     out = Instances.__new__(Instances)
     out.watertight = _flag(watertight, "watertight")
+    out.merge = _flag(merge, "merge")
+    out._merged = None
     out._opts = {"threads": None}
     out._meshes = dict(zip(ids, meshes))
     out._transforms = {g: _placements(m, g) for g, m in zip(ids, transforms)}

@@ -79,3 +79,8 @@ class Top:
 
 # A batch's rays checked as the batch calls check them (a scene of no instances).
 def check_rays(rays: Rays) -> None: ...
+# One tree over the trees' triangles, in order (kdray.Instances(..., merge=True)).
+def merge(
+    trees: List[Tree], layout: Literal["wide", "nodes"], leaves: Literal["groups", "list"],
+    quality: Literal["fast", "high"], threads: Optional[int],
+) -> Tree: ...

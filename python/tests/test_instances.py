@@ -208,3 +208,44 @@ def test_threads_and_batch_sizes_give_the_same_answers(rng):
             assert np.array_equal(x, y[k:k + 1000])
     assert np.array_equal(scene.occluded(origins, directions, threads=1),
                           scene.occluded(origins, directions))
+
+
+@pytest.mark.parametrize("watertight", [False, True])
+def test_merge_answers_as_the_two_level_walk_bit_for_bit(rng, watertight):
+    """``merge=True``: one tree over every mesh placed once by the identity (a mesh given as a
+    Scene whose tree stores its triangles out of input order among them), the same answers as
+    the two-level walk; other placements fall back to the walk."""
+    meshes = [random_mesh(rng, n_tris=150) for _ in range(3)]
+    meshes[1] = kdray.Scene(*meshes[1], leaves="groups", quality="high")
+    walk = kdray.Instances(meshes, watertight=watertight)
+    merged = kdray.Instances(meshes, watertight=watertight, merge=True)
+    assert merged.info["merged"] and not walk.info["merged"]
+    origins, directions = rays_through(rng, np.full(3, -1.5), np.full(3, 1.5), 20000)
+    directions[::3] *= 3.0  # some not of unit length
+
+    def agree():
+        a = walk.intersect(origins, directions, points=True, normals=True)
+        b = merged.intersect(origins, directions, points=True, normals=True)
+        for x, y in zip(a[:6], b[:6]):
+            assert np.array_equal(x, y)
+        np.testing.assert_allclose(a.points, b.points, rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(a.normals, b.normals, atol=1e-6)
+        assert np.array_equal(walk.occluded(origins, directions),
+                              merged.occluded(origins, directions))
+        for r in range(0, len(origins), 1999):
+            assert walk.raycast(origins[r], directions[r]) == merged.raycast(origins[r],
+                                                                             directions[r])
+        return a
+
+    assert (agree().geometry_id >= 0).sum() > 5000
+    turned = affine(rotation(rng), [0.5, 0, 0])
+    for scene in (walk, merged):
+        scene.set_transforms(2, turned)
+    assert not merged.info["merged"]
+    agree()
+    small = random_mesh(rng, n_tris=50)
+    for scene in (walk, merged):
+        scene.remove_mesh(2)
+        scene.add_mesh(small)
+    assert merged.info["merged"] and merged.geometry_ids == [0, 1, 3]
+    agree()
