@@ -196,3 +196,34 @@ def test_trimesh_scene(rng):
     theirs = [label[k] for k in nearest[both]]
     assert np.mean([a == b for a, b in zip(ours, theirs)]) > 0.99
     np.testing.assert_allclose(hits.t[both], t_all[both, nearest[both]], rtol=1e-4, atol=1e-5)
+
+
+@pytest.mark.parametrize("call", ["intersect", "occluded"])
+def test_ctrl_c_stops_a_long_batch(call):
+    """As test_interrupt.py for Scene: a call that would run for hours (2,000 placements of one
+    triangle, all on one spot, whose boxes every ray enters and whose triangle it misses) stops
+    with KeyboardInterrupt, and the scene goes on answering."""
+    from child import run
+
+    out = run(
+        f"""
+        import os, signal, threading
+        import numpy as np, kdray
+        tri = ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+        scene = kdray.Instances([tri], [np.tile(np.eye(4), (2000, 1, 1))])
+        o = np.broadcast_to(np.float32([0.9, 0.9, -1]), (5_000_000, 3))  # 10¹⁰ bottom walks
+        d = np.float32([0, 0, 1])
+        threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
+        answered = False
+        try:
+            scene.{call}(o, d)
+            answered = True
+        except KeyboardInterrupt:
+            print("interrupted")
+        assert not answered
+        assert scene.raycast((0.2, 0.2, -1), (0, 0, 1))[0] == 1.0
+        print("ok")
+        """,
+        timeout=120,
+    )
+    assert "interrupted" in out and out.strip().endswith("ok"), out
