@@ -201,32 +201,39 @@ class Instances:
             np.concatenate(instance),
         )
 
-    def _mergeable(self) -> bool:
-        """Whether ``merge`` applies now: every mesh placed once, by the identity, no origin."""
-        return self.merge and bool(self._meshes) and all(
-            len(m) == 1 and np.array_equal(m[0], _IDENTITY) and self._meshes[g].origin is None
-            for g, m in self._transforms.items()
+    def _mergeable(self, meshes: Dict[int, Scene], transforms: Dict[int, np.ndarray]) -> bool:
+        """Whether ``merge`` applies: every mesh placed once, by the identity, no origin."""
+        return self.merge and bool(meshes) and all(
+            len(m) == 1 and np.array_equal(m[0], _IDENTITY) and meshes[g].origin is None
+            for g, m in transforms.items()
         )
 
     def _one_tree(self) -> Any:
         """``(scene, first triangles, geometry ids)`` of the merged tree where ``merge``
-        applies (built on first use after a change), else ``None``."""
-        if self._merged is None:
-            self._merged = False
-            if self._mergeable():
-                ids = sorted(self._meshes)
-                opts = _build_options({k: v for k, v in self._opts.items() if k != "threads"})
-                tree = _kdray.merge(
-                    [self._meshes[g]._tree for g in ids],
-                    opts["layout"], opts["leaves"], opts["quality"], self._opts["threads"],
-                )
-                counts = [self._meshes[g].info["triangles"] for g in ids]
-                self._merged = (
-                    Scene._wrap(tree, self.watertight),
-                    np.cumsum([0] + counts),
-                    np.array(ids, dtype=np.int64),
-                )
-        return self._merged or None
+        applies (built on first use after a change), else ``None``. Cached with the dicts of
+        meshes and transforms it was made for: every change replaces them (never alters
+        them), so a tree built while another thread changed the scene is never taken for the
+        new one."""
+        meshes, transforms = self._meshes, self._transforms
+        cached = self._merged
+        if cached is not None and cached[0] is meshes and cached[1] is transforms:
+            return cached[2]
+        merged = None
+        if self._mergeable(meshes, transforms):
+            ids = sorted(meshes)
+            opts = _build_options({k: v for k, v in self._opts.items() if k != "threads"})
+            tree = _kdray.merge(
+                [meshes[g]._tree for g in ids],
+                opts["layout"], opts["leaves"], opts["quality"], self._opts["threads"],
+            )
+            counts = [meshes[g].info["triangles"] for g in ids]
+            merged = (
+                Scene._wrap(tree, self.watertight),
+                np.cumsum([0] + counts),
+                np.array(ids, dtype=np.int64),
+            )
+        self._merged = (meshes, transforms, merged)
+        return merged
 
     @staticmethod
     def _ids(merged: Any, prim: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -259,7 +266,6 @@ class Instances:
         meshes[g], trans[g] = scene, m
         self._top = self._build(meshes, trans)
         self._meshes, self._transforms, self._next = meshes, trans, g + 1
-        self._merged = None
         return g
 
     def remove_mesh(self, geometry_id: int) -> None:
@@ -269,7 +275,6 @@ class Instances:
         del meshes[g], trans[g]
         self._top = self._build(meshes, trans)
         self._meshes, self._transforms = meshes, trans
-        self._merged = None
 
     def set_transforms(self, geometry_id: int, transforms: Any) -> None:
         """Places mesh ``geometry_id`` anew (``transforms`` as in the constructor; the number of
@@ -279,7 +284,6 @@ class Instances:
         trans[g] = _placements(transforms, g)
         self._top = self._build(self._meshes, trans)
         self._transforms = trans
-        self._merged = None
 
     def transforms(self, geometry_id: int) -> np.ndarray:
         """Mesh ``geometry_id``'s placements as ``(k, 4, 4)`` float64 (the float32 values
@@ -319,7 +323,7 @@ class Instances:
             "depth": top.get("depth", 0),
             "bytes": top.get("bytes", 0),
             "bounds": top.get("bounds"),
-            "merged": self._mergeable(),
+            "merged": self._mergeable(self._meshes, self._transforms),
         }
 
     def __repr__(self) -> str:
@@ -364,11 +368,12 @@ class Instances:
             )
             g, prim, i = self._ids(merged, h.prim)
             return InstanceHits(h.t, prim, h.u, h.v, g, i, h.points, h.normals)
+        top = self._top  # read once: another thread may place meshes meanwhile
         b = _batch(origins, directions, tmin, tmax)
         points, normals = _flag(points, "points"), _flag(normals, "normals")
         threads = _threads(threads)
         shape = b.shape
-        if self._top is None:
+        if top is None:
             _kdray.check_rays(b)
             nan3 = np.full(shape + (3,), np.nan, dtype=np.float32)
             return InstanceHits(
@@ -381,9 +386,7 @@ class Instances:
                 nan3 if points else None,
                 nan3.copy() if normals else None,
             )
-        t, prim, u, v, g, i, p, n = self._top.intersect(
-            b, self.watertight, points, normals, threads
-        )
+        t, prim, u, v, g, i, p, n = top.intersect(b, self.watertight, points, normals, threads)
         return InstanceHits(
             t.reshape(shape),
             prim.reshape(shape),
@@ -406,7 +409,8 @@ class Instances:
         ...     (0.25, 0.5, 1), (0, 0, -1))
         (1.0, 0, 0.25, 0.5, 0, 0)
         """
-        if self._top is None:
+        top = self._top
+        if top is None:
             # One ray checked as a batch, for the same errors.
             self.intersect(origin, direction, tmin, tmax)
             return (math.inf, -1, 0.0, 0.0, -1, -1)
@@ -419,7 +423,7 @@ class Instances:
             g, prim, i = (int(x) for x in self._ids(merged, np.array(prim)))
             return (t, prim, u, v, g, i)
         try:
-            return self._top.raycast(origin, direction, tmin, tmax, self.watertight)
+            return top.raycast(origin, direction, tmin, tmax, self.watertight)
         except (TypeError, ValueError):
             # The batch's checks and words for the one ray (past float32, NaN, zero, ...).
             self.intersect(origin, direction, tmin, tmax)
@@ -439,12 +443,13 @@ class Instances:
         merged = self._one_tree()
         if merged is not None:
             return merged[0].occluded(origins, directions, tmin, tmax, threads=threads)
+        top = self._top
         b = _batch(origins, directions, tmin, tmax)
         threads = _threads(threads)
-        if self._top is None:
+        if top is None:
             _kdray.check_rays(b)
             return np.zeros(b.shape, dtype=bool)
-        return self._top.occluded(b, self.watertight, threads).reshape(b.shape)
+        return top.occluded(b, self.watertight, threads).reshape(b.shape)
 
 
 def _restore(

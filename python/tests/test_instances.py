@@ -208,6 +208,15 @@ def test_threads_and_batch_sizes_give_the_same_answers(rng):
             assert np.array_equal(x, y[k:k + 1000])
     assert np.array_equal(scene.occluded(origins, directions, threads=1),
                           scene.occluded(origins, directions))
+    # Python threads sharing the scene (each call releases the GIL), chunk by chunk.
+    from concurrent.futures import ThreadPoolExecutor
+
+    chunks = np.array_split(np.arange(len(origins)), 8)
+    with ThreadPoolExecutor(4) as pool:
+        parts = list(pool.map(lambda c: scene.intersect(origins[c], directions[c], threads=1),
+                              chunks))
+    for k, field in enumerate(every[:6]):
+        assert np.array_equal(np.concatenate([p[k] for p in parts]), field)
 
 
 @pytest.mark.parametrize("watertight", [False, True])
