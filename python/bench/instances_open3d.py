@@ -19,8 +19,9 @@ scene's box, directions uniform on the sphere (seeded), the same float32 arrays 
 `--aim`: directions towards random triangles' centres instead (most rays hit). Each round times
 every contender's tracing (not its build) once, in turn, the order rotating with the round.
 Printed: the medians of wall time (ms, M rays/s) and of the process's CPU time (what a loaded
-machine distorts least: one thread each), Open3D ÷ kdray (above 1: kdray faster), and the share of rays on which each kdray way and Open3D name the same mesh and the
-same triangle (both miss, or both hit that one).
+machine distorts least: one thread each), Open3D ÷ kdray (above 1: kdray faster), and the
+share of rays on which each kdray way and Open3D name the same mesh and the same triangle (both
+miss, or both hit that one).
 """
 import argparse
 import resource
@@ -117,7 +118,8 @@ def main():
         r = o3.cast_rays(rays, nthreads=1)
         g = r["geometry_ids"].numpy().astype(np.int64)
         miss = g == o3.INVALID_ID
-        return np.where(miss, -1, g), np.where(miss, -1, r["primitive_ids"].numpy().astype(np.int64))
+        prim = r["primitive_ids"].numpy().astype(np.int64)
+        return np.where(miss, -1, g), np.where(miss, -1, prim)
 
     def instances():
         h = inst.intersect(o, d, threads=1)

@@ -30,7 +30,10 @@ import numpy as np
 
 from . import _kdray, _pickle
 
-__all__ = ["Scene", "Hits", "AllHits", "Instances", "InstanceHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS", "__version__"]
+__all__ = [
+    "Scene", "Hits", "AllHits", "Instances", "InstanceHits", "CONTAINS_DIRECTION", "ISA",
+    "MAX_THREADS", "__version__",
+]
 
 #: The axis along which :meth:`Scene.contains` casts its rays: ``+x``, or ``−x`` from a point
 #: nearer the low x face of the scene's box (the parity is the same either way).

@@ -6,7 +6,10 @@ from typing import Any, Iterable, List, Literal, NamedTuple, Optional, Tuple, Un
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Scene", "Hits", "AllHits", "Instances", "InstanceHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS", "__version__"]
+__all__ = [
+    "Scene", "Hits", "AllHits", "Instances", "InstanceHits", "CONTAINS_DIRECTION", "ISA",
+    "MAX_THREADS", "__version__",
+]
 
 CONTAINS_DIRECTION: Tuple[float, float, float]
 ISA: str

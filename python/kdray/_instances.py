@@ -117,9 +117,9 @@ class Instances:
     - ``merge``: where every mesh is placed once, by the identity (and has no ``origin``), trace
       one tree over all their triangles instead of the two-level walk: the same answers, bit
       for bit, 2–3× faster on 100 meshes with ``quality='high'`` trees (1–2× with the default;
-      the package README, "Scenes of many meshes"), for a build over every triangle (their stored float32 vertices, with the build
-      options) on the first query after each change — adding, removing or moving a mesh then
-      rebuilds that one tree. Otherwise (other placements) the two-level walk answers;
+      the package README, "Scenes of many meshes"), for a build over every triangle (their
+      stored float32 vertices, with the build options) on the first query after each change:
+      adding, removing or moving a mesh then rebuilds that one tree. Otherwise (other placements) the two-level walk answers;
       ``info['merged']`` says which.
 
     Where every transform is the identity or a translation whose sums are exact in float32,

@@ -1,5 +1,6 @@
 """The main README's Python example and python/README.md's (a process pool, a Dask cluster, a
-scene of many meshes) run as written (scripts/doc-commands.sh runs only the shell blocks) and print what they say."""
+scene of many meshes) run as written (scripts/doc-commands.sh runs only the shell blocks) and
+print what they say."""
 
 import contextlib
 import importlib.util
