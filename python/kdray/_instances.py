@@ -65,17 +65,23 @@ def _placements(x: Any, geometry_id: int) -> np.ndarray:
             f"or (k, 3, 4), not {np.shape(x)}"
         )
     a = a.astype(np.float64)
-    for i, m in enumerate(a):
-        name = f"geometry {geometry_id}, instance {i}"
-        if not np.isfinite(m).all():
-            raise ValueError(f"{name}: the transform is not finite:\n{m}")
-        if m.shape[0] == 4 and not np.array_equal(m[3], _LAST_ROW):
-            raise ValueError(
-                f"{name}: the last row is {m[3].tolist()}, not [0, 0, 0, 1]: a projective "
-                "transform, not an affine one"
-            )
-        if (np.abs(m[:3]) > _F32_MAX).any():
-            raise ValueError(f"{name}: the transform is past float32's range (about ±3.4e38)")
+    # Checked for every placement at once; the first bad one named.
+    problems = [
+        (~np.isfinite(a).all(axis=(1, 2)), lambda m: f"the transform is not finite:\n{m}"),
+        (
+            (a[:, 3] != _LAST_ROW).any(axis=1) if a.shape[1] == 4 else np.zeros(len(a), bool),
+            lambda m: f"the last row is {m[3].tolist()}, not [0, 0, 0, 1]: a projective "
+            "transform, not an affine one",
+        ),
+        (
+            (np.abs(a[:, :3]) > _F32_MAX).any(axis=(1, 2)),
+            lambda m: "the transform is past float32's range (about ±3.4e38)",
+        ),
+    ]
+    for bad, say in problems:
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(f"geometry {geometry_id}, instance {i}: {say(a[i])}")
     return np.ascontiguousarray(a[:, :3, :].astype(np.float32))
 
 
