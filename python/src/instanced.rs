@@ -337,11 +337,26 @@ impl Top {
                 })),
             }
         })?;
+        // The arrays' memory reserved fallibly, as every batch's (a `MemoryError`, not an abort).
         let n = out.len();
-        let mut t = Vec::with_capacity(n);
-        let mut prim = Vec::with_capacity(n);
-        let (mut u, mut v) = (Vec::with_capacity(n), Vec::with_capacity(n));
-        let (mut g, mut i) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        let what = "intersect's answers";
+        let (mut t, mut u, mut v) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut prim, mut g, mut i) = (Vec::new(), Vec::new(), Vec::new());
+        for a in [&mut t, &mut u, &mut v] {
+            stop::reserve(a, n, what)?;
+        }
+        for a in [&mut prim, &mut g, &mut i] {
+            stop::reserve(a, n, what)?;
+        }
+        let extra = |on: bool| -> Result<Option<Vec<f32>>, Stop> {
+            if !on {
+                return Ok(None);
+            }
+            let mut x = Vec::new();
+            stop::reserve(&mut x, 3 * n, what)?;
+            Ok(Some(x))
+        };
+        let (mut p, mut nrm) = (extra(points)?, extra(normals)?);
         for a in &out {
             t.push(a.t);
             prim.push(a.prim);
@@ -350,10 +365,14 @@ impl Top {
             let (gi, ii) = self.ids(a.user);
             g.push(gi);
             i.push(ii);
+            if let Some(p) = p.as_mut() {
+                p.extend(a.point);
+            }
+            if let Some(nrm) = nrm.as_mut() {
+                nrm.extend(a.normal);
+            }
         }
-        let flat = |on: bool, f: fn(&Answer) -> [f32; 3]| {
-            on.then(|| PyArray1::from_vec(py, out.iter().flat_map(f).collect()))
-        };
+        drop(out);
         Ok((
             PyArray1::from_vec(py, t),
             PyArray1::from_vec(py, prim),
@@ -361,8 +380,8 @@ impl Top {
             PyArray1::from_vec(py, v),
             PyArray1::from_vec(py, g),
             PyArray1::from_vec(py, i),
-            flat(points, |a| a.point),
-            flat(normals, |a| a.normal),
+            p.map(|p| PyArray1::from_vec(py, p)),
+            nrm.map(|n| PyArray1::from_vec(py, n)),
         ))
     }
 

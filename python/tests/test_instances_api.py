@@ -227,3 +227,33 @@ def test_ctrl_c_stops_a_long_batch(call):
         timeout=120,
     )
     assert "interrupted" in out and out.strip().endswith("ok"), out
+
+
+def test_memory_limits_raise_memory_error():
+    """As test_memory.py for Scene: under an address-space limit, a batch whose answers do not
+    fit raises MemoryError naming the call, and the scene goes on answering."""
+    from child import run
+
+    out = run(
+        """
+        import resource
+        import numpy as np, kdray
+        scene = kdray.Instances([(layers(4), None)], [np.tile(np.eye(4), (3, 1, 1))])
+        o = np.array([0.25, 0.25, -1], np.float32)
+        d = np.array([0, 0, 1], np.float32)
+        assert scene.intersect(np.tile(o, (5000, 1)), d).t.max() == 1  # pools exist
+        with open("/proc/self/status") as f:
+            vm = next(int(l.split()[1]) << 10 for l in f if l.startswith("VmSize"))
+        resource.setrlimit(resource.RLIMIT_AS, (vm + (1 << 30), vm + (1 << 30)))
+        tmin = np.zeros(40_000_000, np.float32)  # 160 MB fit; 2 GB of answers do not
+        try:
+            scene.intersect(o, d, tmin)
+            raise AssertionError("no MemoryError")
+        except MemoryError as e:
+            assert "intersect" in str(e), str(e)
+        assert scene.raycast(o, d)[0] == 1.0
+        print("ok")
+        """,
+        timeout=300,
+    )
+    assert out.strip().endswith("ok"), out
