@@ -78,6 +78,10 @@ pub struct Top {
     instance: Vec<i64>,
 }
 
+/// Rays between two looks at the cancel flag within a piece: a ray may enter thousands of
+/// placements, so a whole piece (up to `rays::MAX_PIECE` rays) could outlast Ctrl-C by seconds.
+const CANCEL_EVERY: usize = 1024;
+
 /// One ray's answer, written by the pool and spread into arrays after.
 #[derive(Clone, Copy)]
 struct Answer {
@@ -144,6 +148,9 @@ impl Top {
                 return;
             }
             for (j, (a, (ray, len))) in out.iter_mut().zip(rays.iter().zip(&lengths)).enumerate() {
+                if j % CANCEL_EVERY == 0 && cancelled(cancel) {
+                    return;
+                }
                 let h = walk.intersect_in(mode, ray);
                 if h.is_hit() {
                     *a = answer(walk, &h, *len);
@@ -406,6 +413,9 @@ impl Top {
                     return;
                 }
                 for (j, o) in out.iter_mut().enumerate() {
+                    if j % CANCEL_EVERY == 0 && cancelled(cancel) {
+                        return;
+                    }
                     *o = walk.occluded_in(mode, &batch.ray(k * c + j).0);
                 }
             });
