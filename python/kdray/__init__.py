@@ -30,7 +30,10 @@ import numpy as np
 
 from . import _kdray, _pickle
 
-__all__ = ["Scene", "Hits", "AllHits", "CONTAINS_DIRECTION", "ISA", "MAX_THREADS", "__version__"]
+__all__ = [
+    "Scene", "Hits", "AllHits", "Instances", "InstanceHits", "CONTAINS_DIRECTION", "ISA",
+    "MAX_THREADS", "__version__",
+]
 
 #: The axis along which :meth:`Scene.contains` casts its rays: ``+x``, or ``−x`` from a point
 #: nearer the low x face of the scene's box (the parity is the same either way).
@@ -645,3 +648,7 @@ class Scene:
         p, lead = _points(points, "points", self.origin)
         out = self._tree.contains(_aligned(p.reshape(-1, 3)), _threads(threads))
         return out.reshape(lead)
+
+
+# Scenes of many meshes (kdray/_instances.py), after Scene, which they are made of.
+from ._instances import InstanceHits, Instances  # noqa: E402

@@ -2,7 +2,7 @@
 with arrays it has checked and converted: C-contiguous float32 rays (one row, shared, or n),
 int64 faces. Not a public API."""
 
-from typing import Literal, Optional, Tuple
+from typing import List, Literal, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -57,3 +57,30 @@ class Tree:
 def words(tree: Tree) -> npt.NDArray[np.uint32]: ...
 # A .kdt mapped read-only and validated (Scene.load(path, mmap=True)).
 def map_kdt(path: str) -> Tree: ...
+
+# A top level over trees (kdray.Instances, kdray/_instances.py; src/instanced.rs).
+class Top:
+    @staticmethod
+    def build(
+        trees: List[Tree], bottom: npt.NDArray[np.uint32], transforms: F32, geometry: I64,
+        instance: I64,
+    ) -> "Top": ...
+    def info(self) -> dict: ...
+    def raycast(
+        self, origin: Tuple[float, float, float], direction: Tuple[float, float, float],
+        tmin: float, tmax: float, watertight: bool,
+    ) -> Tuple[float, int, float, float, int, int]: ...
+    def intersect(
+        self, rays: Rays, watertight: bool, points: bool, normals: bool, threads: Optional[int]
+    ) -> Tuple[F32, I64, F32, F32, I64, I64, Optional[F32], Optional[F32]]: ...
+    def occluded(
+        self, rays: Rays, watertight: bool, threads: Optional[int]
+    ) -> npt.NDArray[np.bool_]: ...
+
+# A batch's rays checked as the batch calls check them (a scene of no instances).
+def check_rays(rays: Rays) -> None: ...
+# One tree over the trees' triangles, in order (kdray.Instances(..., merge=True)).
+def merge(
+    trees: List[Tree], layout: Literal["wide", "nodes"], leaves: Literal["groups", "list"],
+    quality: Literal["fast", "high"], threads: Optional[int],
+) -> Tree: ...

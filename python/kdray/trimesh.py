@@ -7,6 +7,9 @@ It has trimesh's method names, arguments and return shapes (``trimesh.ray.ray_tr
 exact crossing (:meth:`kdray.Scene.intersect_all`): a ray through a shared edge is reported once,
 not once per triangle, and ``contains_points`` is exact where trimesh's ray test is not.
 
+A ``trimesh.Scene`` (meshes placed by its graph's transforms) becomes a :class:`kdray.Instances`
+through :func:`instances`, with the names of its geometry and nodes.
+
 trimesh itself is not imported here: the intersector reads the mesh's arrays.
 
 Example::
@@ -22,13 +25,61 @@ Example::
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, List, NamedTuple
 
 import numpy as np
 
-from . import Scene
+from . import Instances, Scene
 
-__all__ = ["RayMeshIntersector"]
+__all__ = ["RayMeshIntersector", "SceneInstances", "instances"]
+
+
+class SceneInstances(NamedTuple):
+    """A ``trimesh.Scene`` as :func:`instances` gives it: the :class:`kdray.Instances`, and the
+    names its answers' ids stand for: ``geometry_names[geometry_id]`` (a key of
+    ``scene.geometry``) and ``node_names[geometry_id][instance_id]`` (a node of
+    ``scene.graph``)."""
+
+    instances: Instances
+    geometry_names: List[str]
+    node_names: List[List[str]]
+
+
+def instances(scene: Any, *, watertight: bool = False, **build_options: Any) -> SceneInstances:
+    """The triangle meshes of a ``trimesh.Scene`` placed as its graph places them: one
+    :class:`kdray.Scene` a geometry (built once however many nodes show it) and one placement a
+    node (``scene.graph[node]``'s world transform). Geometry without faces (paths, point
+    clouds, empty meshes) and geometry no node shows are left out. ``watertight`` and the build
+    options as for :class:`kdray.Instances`.
+
+    >>> import numpy as np, trimesh, kdray.trimesh
+    >>> scene = trimesh.Scene()
+    >>> node = scene.add_geometry(trimesh.creation.box(), geom_name="box", node_name="here")
+    >>> moved = np.eye(4); moved[0, 3] = 5.0                  # a second node, 5 along x
+    >>> scene.graph.update(frame_to="there", geometry="box", matrix=moved)
+    >>> found = kdray.trimesh.instances(scene)
+    >>> hit = found.instances.intersect([5.1, 0.2, -9], [0, 0, 1])
+    >>> g, i = int(hit.geometry_id), int(hit.instance_id)
+    >>> found.geometry_names[g], found.node_names[g][i], float(hit.t)
+    ('box', 'there', 8.5)
+    """
+    nodes_of = scene.graph.geometry_nodes
+    meshes, transforms, geometry_names, node_names = [], [], [], []
+    for name, geom in scene.geometry.items():
+        faces = getattr(geom, "faces", None)
+        nodes = list(nodes_of.get(name, ()))
+        if faces is None or len(faces) == 0 or not nodes:
+            continue
+        meshes.append((np.asarray(geom.vertices), np.asarray(faces)))
+        transforms.append(np.stack([np.asarray(scene.graph[n][0], dtype=np.float64)
+                                    for n in nodes]))
+        geometry_names.append(name)
+        node_names.append(nodes)
+    return SceneInstances(
+        Instances(meshes, transforms, watertight=watertight, **build_options),
+        geometry_names,
+        node_names,
+    )
 
 
 class RayMeshIntersector:

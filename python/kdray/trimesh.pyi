@@ -1,11 +1,11 @@
 """Type stubs of :mod:`kdray.trimesh` (docstrings: kdray/trimesh.py)."""
 
-from typing import Any, Tuple, Union
+from typing import Any, List, NamedTuple, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
-from . import Scene
+from . import Instances, Scene
 
 class RayMeshIntersector:
     mesh: Any
@@ -37,3 +37,10 @@ class RayMeshIntersector:
         **kwargs: Any,
     ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
     def contains_points(self, points: npt.ArrayLike) -> npt.NDArray[np.bool_]: ...
+
+class SceneInstances(NamedTuple):
+    instances: Instances
+    geometry_names: List[str]
+    node_names: List[List[str]]
+
+def instances(scene: Any, *, watertight: bool = False, **build_options: Any) -> SceneInstances: ...

@@ -15,6 +15,7 @@
 mod block;
 mod closest;
 mod crossings;
+mod instanced;
 mod mapped;
 mod mesh;
 mod owned;
@@ -449,6 +450,9 @@ impl Tree {
 #[pymodule]
 fn _kdray(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Tree>()?;
+    m.add_class::<instanced::Top>()?;
+    m.add_function(wrap_pyfunction!(instanced::check_rays, m)?)?;
+    m.add_function(wrap_pyfunction!(instanced::merge, m)?)?;
     m.add_function(wrap_pyfunction!(pickle::words, m)?)?;
     m.add_function(wrap_pyfunction!(mapped::map_kdt, m)?)?;
     m.add("CONTAINS_DIRECTION", crossings::CONTAINS_DIRECTION)?;

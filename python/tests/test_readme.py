@@ -1,5 +1,6 @@
-"""The main README's Python example and python/README.md's (a process pool, a Dask cluster) run
-as written (scripts/doc-commands.sh runs only the shell blocks) and print what they say."""
+"""The main README's Python example and python/README.md's (a process pool, a Dask cluster, a
+scene of many meshes) run as written (scripts/doc-commands.sh runs only the shell blocks) and
+print what they say."""
 
 import contextlib
 import importlib.util
@@ -57,8 +58,9 @@ def run_script(block, tmp_path):
 
 def test_the_package_readme_has_its_examples():
     blocks = package_blocks()
-    assert len(blocks) == 2
+    assert len(blocks) == 3
     assert "ProcessPoolExecutor" in blocks[0] and "LocalCluster" in blocks[1]
+    assert "kdray.Instances" in blocks[2]
 
 
 def test_the_process_pool_example_runs(tmp_path):
@@ -70,3 +72,7 @@ def test_the_process_pool_example_runs(tmp_path):
 )
 def test_the_dask_recipe_runs(tmp_path):
     assert run_script(package_blocks()[1], tmp_path) == ["True True True"]
+
+
+def test_the_instances_example_runs(tmp_path):
+    assert run_script(package_blocks()[2], tmp_path) == ["True True"]

@@ -1,0 +1,469 @@
+//! Scenes of many meshes (`kdray.Instances`): bottom-level trees (the package's `Tree`s, shared
+//! with the `kdray.Scene`s they came from) placed by affine transforms under a top level
+//! (`kdray::instances::top_level`, walked by `kdray_core::instance`).
+//!
+//! A [`Top`] is immutable: the Python layer makes a new one whenever placements change or a mesh
+//! is added or removed, which builds the top level alone (`O(n log n)` in the instances) and
+//! shares every bottom tree as it is. Each placement's record carries its index in the arrays
+//! given here as its user id, so a hit names the geometry and the placement the Python layer
+//! gave for it.
+//!
+//! The batches trace each ray by the two-level single-ray walk
+//! (`InstancedScene::intersect_in`, `occluded_in`), the rays converted as every batch converts
+//! them (`rays::Batch::convert`: unit directions, intervals scaled) on the package's pools
+//! without the GIL, Ctrl-C checked between pieces (`run`).
+
+use crate::Tree;
+use crate::rays::{Batch, CHUNK, for_chunks};
+use crate::run::{self, Cancel, cancelled};
+use crate::stop::{self, Stop};
+use crate::{RayArgs, mode, slice, value_error};
+use kdray::instances::{Placement, top_level};
+use kdray_core::Scene;
+use kdray_core::instance::{Affine, InstanceHit, InstancedScene};
+use kdray_core::traverse::Mode;
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use self_cell::self_cell;
+
+/// What a top level holds: its words, the bottom scenes it indexes and the trees that own
+/// their words.
+struct Parts {
+    words: Vec<u32>,
+    /// Views of `trees`' words (see [`Parts::new`] for their lifetime).
+    scenes: Vec<Scene<'static>>,
+    /// Held, never read: they keep the words `scenes` view alive.
+    _trees: Vec<Py<Tree>>,
+}
+
+impl Parts {
+    fn new(trees: Vec<Py<Tree>>, words: Vec<u32>) -> Self {
+        let scenes = trees
+            .iter()
+            .map(|t| {
+                let scene: Scene<'_> = *t.get().owned.scene();
+                // SAFETY: the scene borrows the words of a frozen `Tree`, which never moves nor
+                // changes them while it lives, and `trees` keeps each tree alive as long as
+                // these parts (the scenes are dropped before the trees, and never handed out
+                // with a longer lifetime than `&self`'s: `Levels` borrows them).
+                unsafe { std::mem::transmute::<Scene<'_>, Scene<'static>>(scene) }
+            })
+            .collect();
+        Self {
+            words,
+            scenes,
+            _trees: trees,
+        }
+    }
+}
+
+type Walk<'a> = InstancedScene<'a, 'a>;
+
+self_cell!(
+    /// The parts and the validated top level that borrows them.
+    struct Levels {
+        owner: Parts,
+        #[covariant]
+        dependent: Walk,
+    }
+);
+
+/// A top level over shared bottom trees (module doc; `kdray.Instances` wraps it).
+#[pyclass(frozen, module = "kdray._kdray")]
+pub struct Top {
+    levels: Levels,
+    /// Per placement (the records' user ids): the Python layer's geometry and placement ids.
+    geometry: Vec<i64>,
+    instance: Vec<i64>,
+}
+
+/// Rays between two looks at the cancel flag within a piece: a ray may enter thousands of
+/// placements, so a whole piece (up to `rays::MAX_PIECE` rays) could outlast Ctrl-C by seconds.
+const CANCEL_EVERY: usize = 1024;
+
+/// One ray's answer, written by the pool and spread into arrays after.
+#[derive(Clone, Copy)]
+struct Answer {
+    t: f32,
+    prim: i64,
+    u: f32,
+    v: f32,
+    user: u32,
+    point: [f32; 3],
+    normal: [f32; 3],
+}
+
+const MISS: Answer = Answer {
+    t: f32::INFINITY,
+    prim: -1,
+    u: 0.0,
+    v: 0.0,
+    user: u32::MAX,
+    point: [f32::NAN; 3],
+    normal: [f32::NAN; 3],
+};
+
+/// The 3×4 row-major transform of row `i` of `transforms` (12 floats a row).
+fn affine(transforms: &[f32], i: usize) -> Affine {
+    let mut m = [0.0; 12];
+    m.copy_from_slice(&transforms[12 * i..12 * i + 12]);
+    Affine(m)
+}
+
+impl Top {
+    fn walk(&self) -> &Walk<'_> {
+        self.levels.borrow_dependent()
+    }
+
+    /// `(geometry, instance)` of a hit's record (−1, −1 for a miss).
+    fn ids(&self, user: u32) -> (i64, i64) {
+        match self.geometry.get(user as usize) {
+            Some(&g) => (g, self.instance[user as usize]),
+            None => (-1, -1),
+        }
+    }
+
+    /// The closest hit of every ray of `batch`, on the current pool; `None` at a ray that
+    /// `check_values` refuses.
+    fn trace(
+        &self,
+        batch: &Batch,
+        mode: Mode,
+        geometry: bool,
+        cancel: &Cancel,
+    ) -> Result<Option<Vec<Answer>>, Stop> {
+        let mut out = stop::filled(batch.n, MISS, "intersect's answers")?;
+        let c = batch.pieces();
+        let walk = self.walk();
+        let bad = std::sync::atomic::AtomicBool::new(false);
+        for_chunks(&mut out, c, |k, out| {
+            if cancelled(cancel) || bad.load(std::sync::atomic::Ordering::Relaxed) {
+                return;
+            }
+            let (mut rays, mut lengths) = (Vec::new(), Vec::new());
+            let from = k * c;
+            if !batch.convert(from..from + out.len(), &mut rays, &mut lengths) {
+                bad.store(true, std::sync::atomic::Ordering::Relaxed);
+                return;
+            }
+            for (j, (a, (ray, len))) in out.iter_mut().zip(rays.iter().zip(&lengths)).enumerate() {
+                if j % CANCEL_EVERY == 0 && cancelled(cancel) {
+                    return;
+                }
+                let h = walk.intersect_in(mode, ray);
+                if h.is_hit() {
+                    *a = answer(walk, &h, *len);
+                    if geometry {
+                        a.point = batch.point(from + j, a.t);
+                        a.normal = walk.geometric_normal(&h, ray).normalize().to_array();
+                    }
+                }
+            }
+        });
+        Ok((!bad.into_inner()).then_some(out))
+    }
+}
+
+/// A hit's answer in the batch's units (`t` over the direction's length `len`).
+#[inline]
+fn answer(walk: &Walk, h: &InstanceHit, len: f64) -> Answer {
+    Answer {
+        t: if len == 1.0 {
+            h.t
+        } else {
+            (f64::from(h.t) / len) as f32
+        },
+        prim: i64::from(walk.bottom_of(h.instance).input_id(h.prim)),
+        u: h.u,
+        v: h.v,
+        user: h.user_id,
+        ..MISS
+    }
+}
+
+/// Runs `work` on this thread for a few rays, else on the pool of `threads` (as `traced` in
+/// lib.rs).
+fn run_batch<T: Send>(
+    py: Python<'_>,
+    n: usize,
+    threads: Option<usize>,
+    work: impl FnOnce(&Cancel) -> Result<T, Stop> + Send,
+) -> Result<T, Stop> {
+    if n <= CHUNK {
+        py.detach(|| work(&Cancel::new(false)))
+    } else {
+        run::detached(py, threads, work)
+    }
+}
+
+#[pymethods]
+impl Top {
+    /// A top level placing `trees[bottom[k]]` by `transforms[k]` (`(n, 12)` float32, 3×4
+    /// row-major), reporting `geometry[k]`, `instance[k]` for its hits.
+    #[staticmethod]
+    fn build(
+        py: Python<'_>,
+        trees: Vec<Py<Tree>>,
+        bottom: PyReadonlyArray1<'_, u32>,
+        transforms: PyReadonlyArray2<'_, f32>,
+        geometry: PyReadonlyArray1<'_, i64>,
+        instance: PyReadonlyArray1<'_, i64>,
+    ) -> PyResult<Self> {
+        let (b, m) = (slice(&bottom, "bottom")?, slice(&transforms, "transforms")?);
+        let (g, i) = (slice(&geometry, "geometry")?, slice(&instance, "instance")?);
+        let n = b.len();
+        if m.len() != 12 * n || g.len() != n || i.len() != n {
+            return Err(value_error(
+                "bottom, transforms, geometry and instance differ in length",
+            ));
+        }
+        if u32::try_from(n).is_err() {
+            return Err(value_error(format!("{n} instances: at most 2^32 - 1")));
+        }
+        let parts = Parts::new(trees, Vec::new());
+        let words = py.detach(|| -> Result<Vec<u32>, String> {
+            let placements: Vec<Placement> = (0..n)
+                .map(|k| Placement {
+                    bottom: b[k],
+                    transform: affine(m, k),
+                    user_id: k as u32,
+                })
+                .collect();
+            for (k, p) in placements.iter().enumerate() {
+                let name = || format!("geometry {}, instance {}", g[k], i[k]);
+                let scene = parts
+                    .scenes
+                    .get(p.bottom as usize)
+                    .ok_or_else(|| format!("{}: no such mesh", name()))?;
+                if !p.transform.is_finite() {
+                    return Err(format!("{}: the transform is not finite", name()));
+                }
+                if p.transform.inverse().is_none() {
+                    return Err(format!(
+                        "{}: the transform is singular (or nearly: its rows are almost \
+                         dependent), so it has no inverse",
+                        name()
+                    ));
+                }
+                if p.transform.world_box(scene.bounds()).is_none() {
+                    return Err(format!(
+                        "{}: the transform carries the mesh beyond float32's range",
+                        name()
+                    ));
+                }
+            }
+            top_level(&parts.scenes, &placements)
+        });
+        let words = words.map_err(value_error)?;
+        let parts = Parts { words, ..parts };
+        let levels = Levels::try_new(parts, |p| InstancedScene::from_words(&p.words, &p.scenes))
+            .map_err(|e| {
+                value_error(format!(
+                    "the top level does not validate ({e}): please report"
+                ))
+            })?;
+        Ok(Self {
+            levels,
+            geometry: g.to_vec(),
+            instance: i.to_vec(),
+        })
+    }
+
+    /// Counts, bounds and sizes of the top level.
+    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let walk = self.walk();
+        let d = PyDict::new(py);
+        let [lo, hi] = walk.bounds();
+        d.set_item("instances", walk.instance_count())?;
+        d.set_item("nodes", walk.node_count())?;
+        d.set_item("depth", walk.depth())?;
+        d.set_item("bounds", (lo.to_array(), hi.to_array()))?;
+        d.set_item("bytes", self.levels.borrow_owner().words.len() * 4)?;
+        Ok(d)
+    }
+
+    /// One ray's closest hit: `(t, prim, u, v, geometry, instance)`.
+    #[pyo3(signature = (origin, direction, tmin, tmax, watertight))]
+    fn raycast(
+        &self,
+        origin: [f32; 3],
+        direction: [f32; 3],
+        tmin: f32,
+        tmax: f32,
+        watertight: bool,
+    ) -> PyResult<(f32, i64, f32, f32, i64, i64)> {
+        let batch = Batch {
+            origins: &origin,
+            directions: &direction,
+            tmin: &[tmin],
+            tmax: &[tmax],
+            n: 1,
+        };
+        batch.check_values().map_err(value_error)?;
+        let (ray, len) = batch.ray(0);
+        let walk = self.walk();
+        let h = walk.intersect_in(mode(watertight), &ray);
+        if !h.is_hit() {
+            return Ok((f32::INFINITY, -1, 0.0, 0.0, -1, -1));
+        }
+        let a = answer(walk, &h, len);
+        let (g, i) = self.ids(a.user);
+        Ok((a.t, a.prim, a.u, a.v, g, i))
+    }
+
+    /// Closest hits: `(t, prim, u, v, geometry, instance, points or None, normals or None)`.
+    #[allow(clippy::type_complexity)]
+    #[pyo3(signature = (rays, watertight, points, normals, threads))]
+    fn intersect<'py>(
+        &self,
+        py: Python<'py>,
+        rays: RayArgs<'py>,
+        watertight: bool,
+        points: bool,
+        normals: bool,
+        threads: Option<usize>,
+    ) -> PyResult<(
+        Bound<'py, PyArray1<f32>>,
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<f32>>,
+        Bound<'py, PyArray1<f32>>,
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<i64>>,
+        Option<Bound<'py, PyArray1<f32>>>,
+        Option<Bound<'py, PyArray1<f32>>>,
+    )> {
+        let batch = rays.batch()?;
+        let geometry = points || normals;
+        let out = run_batch(py, batch.n, threads, |cancel| {
+            match self.trace(&batch, mode(watertight), geometry, cancel)? {
+                Some(out) => Ok(out),
+                None => Err(Stop::Value(match batch.check_values() {
+                    Err(e) => e,
+                    Ok(()) => "a ray could not be traced: please report this batch".to_string(),
+                })),
+            }
+        })?;
+        // The arrays' memory reserved fallibly, as every batch's (a `MemoryError`, not an abort).
+        let n = out.len();
+        let what = "intersect's answers";
+        let (mut t, mut u, mut v) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut prim, mut g, mut i) = (Vec::new(), Vec::new(), Vec::new());
+        for a in [&mut t, &mut u, &mut v] {
+            stop::reserve(a, n, what)?;
+        }
+        for a in [&mut prim, &mut g, &mut i] {
+            stop::reserve(a, n, what)?;
+        }
+        let extra = |on: bool| -> Result<Option<Vec<f32>>, Stop> {
+            if !on {
+                return Ok(None);
+            }
+            let mut x = Vec::new();
+            stop::reserve(&mut x, 3 * n, what)?;
+            Ok(Some(x))
+        };
+        let (mut p, mut nrm) = (extra(points)?, extra(normals)?);
+        for a in &out {
+            t.push(a.t);
+            prim.push(a.prim);
+            u.push(a.u);
+            v.push(a.v);
+            let (gi, ii) = self.ids(a.user);
+            g.push(gi);
+            i.push(ii);
+            if let Some(p) = p.as_mut() {
+                p.extend(a.point);
+            }
+            if let Some(nrm) = nrm.as_mut() {
+                nrm.extend(a.normal);
+            }
+        }
+        drop(out);
+        Ok((
+            PyArray1::from_vec(py, t),
+            PyArray1::from_vec(py, prim),
+            PyArray1::from_vec(py, u),
+            PyArray1::from_vec(py, v),
+            PyArray1::from_vec(py, g),
+            PyArray1::from_vec(py, i),
+            p.map(|p| PyArray1::from_vec(py, p)),
+            nrm.map(|n| PyArray1::from_vec(py, n)),
+        ))
+    }
+
+    /// Whether anything lies along each ray.
+    #[pyo3(signature = (rays, watertight, threads))]
+    fn occluded<'py>(
+        &self,
+        py: Python<'py>,
+        rays: RayArgs<'py>,
+        watertight: bool,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let batch = rays.batch()?;
+        let walk = self.walk();
+        let mode = mode(watertight);
+        let out = run_batch(py, batch.n, threads, |cancel| {
+            batch.check_values()?;
+            let mut out = stop::filled(batch.n, false, "occluded's answers")?;
+            let c = batch.pieces();
+            for_chunks(&mut out, c, |k, out| {
+                if cancelled(cancel) {
+                    return;
+                }
+                for (j, o) in out.iter_mut().enumerate() {
+                    if j % CANCEL_EVERY == 0 && cancelled(cancel) {
+                        return;
+                    }
+                    *o = walk.occluded_in(mode, &batch.ray(k * c + j).0);
+                }
+            });
+            Ok(out)
+        })?;
+        Ok(PyArray1::from_vec(py, out))
+    }
+}
+
+/// Checks a batch's rays as the batch calls do, for a scene of no instances (which answers
+/// every ray with a miss).
+#[pyfunction]
+pub(crate) fn check_rays(py: Python<'_>, rays: RayArgs<'_>) -> PyResult<()> {
+    let batch = rays.batch()?;
+    py.detach(|| batch.check_values()).map_err(value_error)
+}
+
+/// One tree over the triangles of `trees`, in order (each tree's in its input order, as stored:
+/// the same f32 vertices), built with `layout`, `leaves`, `quality`: `kdray.Instances(...,
+/// merge=True)` where every mesh is placed once by the identity, whose answers are then those
+/// of the two-level walk, bit for bit, from one walk instead of one per mesh.
+#[pyfunction]
+#[pyo3(signature = (trees, layout, leaves, quality, threads))]
+pub(crate) fn merge(
+    py: Python<'_>,
+    trees: Vec<Py<Tree>>,
+    layout: &str,
+    leaves: &str,
+    quality: &str,
+    threads: Option<usize>,
+) -> PyResult<Tree> {
+    let options = crate::options(layout, leaves, quality, threads)?;
+    let scenes: Vec<&Scene> = trees.iter().map(|t| t.get().owned.scene()).collect();
+    let owned = py.detach(|| {
+        crate::pool::on_pool(threads, || -> Result<crate::owned::Owned, Stop> {
+            let total: usize = scenes.iter().map(|s| s.tri_count() as usize).sum();
+            crate::owned::probe_build(total)?;
+            let mut tris = Vec::new();
+            stop::reserve(&mut tris, total, "the merged triangles")?;
+            for s in &scenes {
+                let from = tris.len();
+                tris.resize(from + s.tri_count() as usize, [glam::Vec3::ZERO; 3]);
+                for i in 0..s.tri_count() {
+                    tris[from + s.input_id(i) as usize] = s.vertices(i);
+                }
+            }
+            Ok(crate::owned::build(tris, options)?)
+        })?
+    })?;
+    Ok(Tree { owned })
+}
