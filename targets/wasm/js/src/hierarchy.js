@@ -7,10 +7,9 @@
 // (Points, Line, Sprite, SkinnedMesh, meshes with morph targets or a projective world matrix)
 // are cast by their own `raycast`, and their intersections merged.
 import { Matrix4, Vector3, Vector2, DoubleSide, BackSide } from 'three';
-import { Scene } from './index.js';
 import { InstancedScene, placeWords } from './instanced.js';
-
-const WORDS = 14; // words of one placement (instanced.js)
+import { GeometryTrees } from './trees.js';
+import { Segments, WORDS } from './placements.js';
 
 const _m = new Matrix4();
 const _w = new Matrix4();
@@ -18,11 +17,24 @@ const _a = new Vector3();
 const _b = new Vector3();
 const _c = new Vector3();
 
-// Whether a column-major 4×4 matrix is affine (last row 0, 0, 0, 1); a projective one is left
-// to three's own raycast.
-function affine(e) {
-  return e[3] === 0 && e[7] === 0 && e[11] === 0 && e[15] === 1;
+// How the caster takes an object: 'mesh', 'instanced', 'batched' through the top level; null
+// for three's own raycast (other kinds, skinned or morphed meshes, a projective world matrix);
+// 'skip' for what three's raycast would not hit either (no material, fewer than 3 corners).
+function kindOf(object) {
+  if (!object.isMesh || object.isSkinnedMesh) return null; // Object3D's raycast finds nothing
+  const g = object.geometry;
+  if (object.material === undefined || !g?.attributes?.position) return 'skip';
+  const e = object.matrixWorld.elements;
+  if (g.morphAttributes?.position?.length || e[3] !== 0 || e[7] !== 0 || e[11] !== 0 || e[15] !== 1) return null;
+  if (object.isBatchedMesh) return 'batched';
+  if ((g.index ? g.index.count : g.attributes.position.count) < 3) return 'skip';
+  return object.isInstancedMesh ? 'instanced' : 'mesh';
 }
+
+const nameOf = (object, kind) => () => {
+  const type = kind === 'instanced' ? 'InstancedMesh' : kind === 'batched' ? 'BatchedMesh' : object.type;
+  return `${type} ${JSON.stringify(object.name)} (${object.uuid})`;
+};
 
 /** A raycaster of whole hierarchies with its caches (trees by geometry, the last top level). */
 export class HierarchyRaycaster {
@@ -33,21 +45,20 @@ export class HierarchyRaycaster {
    */
   constructor(options = {}) {
     this.includeHidden = !!options.includeHidden;
-    this.buildOptions = options.build;
-    this.trees = new WeakMap(); // geometry → { scene, version, batches: Map }
+    this.trees = new GeometryTrees(options.build, () => this.dispose());
+    this.segments = new Segments();
     this.top = null; // the InstancedScene of the last call
-    this.meshes = []; // its meshes (Scenes)
-    this.words = new Uint32Array(0); // its placements
-    this.scratch = new Uint32Array(1024);
-    this.sources = []; // [{ object, kind, base, geometry, bottomOf }] of the last collect
+    this.slots = new Map(); // its meshes: Scene → index
+    this.placed = null; // the sources it places
+    this.sources = []; // [{ object, kind, seg, base }] of the last call, in id order
   }
 
   /** Frees the top level (the trees stay with their geometries until those are disposed). */
   dispose() {
     this.top?.dispose();
     this.top = null;
-    this.meshes = [];
-    this.words = new Uint32Array(0);
+    this.slots = new Map();
+    this.placed = null;
   }
 
   /** As three's `raycaster.intersectObject(object, recursive, intersects)`. */
@@ -59,178 +70,73 @@ export class HierarchyRaycaster {
   intersectObjects(raycaster, objects, recursive = true, intersects = []) {
     const others = [];
     const sources = [];
-    let words = this.scratch;
-    let n = 0;
-    const meshes = [];
-    const meshIndex = new Map();
-    const bottom = (scene) => {
-      let i = meshIndex.get(scene);
-      if (i === undefined) {
-        i = meshes.length;
-        meshes.push(scene);
-        meshIndex.set(scene, i);
-      }
-      return i;
-    };
-    const f32 = () => new Float32Array(words.buffer);
-    let f = f32();
-    const push = (m, mesh, id, what) => {
-      if (WORDS * (n + 1) > words.length) {
-        const grown = new Uint32Array(2 * words.length);
-        grown.set(words);
-        words = grown;
-        f = f32();
-      }
-      const e = m.elements;
-      const at = WORDS * n;
-      f[at] = e[0]; f[at + 1] = e[4]; f[at + 2] = e[8]; f[at + 3] = e[12];
-      f[at + 4] = e[1]; f[at + 5] = e[5]; f[at + 6] = e[9]; f[at + 7] = e[13];
-      f[at + 8] = e[2]; f[at + 9] = e[6]; f[at + 10] = e[10]; f[at + 11] = e[14];
-      for (let k = 0; k < 12; k++) {
-        if (!Number.isFinite(f[at + k])) throw new RangeError(`kdray/three: ${what} has a world matrix that is not finite (elements ${[...e]})`);
-      }
-      words[at + 12] = mesh;
-      words[at + 13] = id;
-      n++;
-    };
     let nextId = 0;
     const visit = (object) => {
       if (!this.includeHidden && object.visible === false) return;
       if (object.layers.test(raycaster.layers)) {
-        const kind = this.#kind(object);
-        if (kind === null) others.push(object);
-        else if (kind !== 'skip') {
-          const base = nextId;
-          const src = { object, kind, base, count: 0 };
-          const type = kind === 'instanced' ? 'InstancedMesh' : kind === 'batched' ? 'BatchedMesh' : object.type;
-          const name = `${type} ${JSON.stringify(object.name)} (${object.uuid})`;
-          const w = object.matrixWorld;
-          if (kind === 'mesh') {
-            push(w, bottom(this.#tree(object.geometry)), base, name);
-            src.count = 1;
-          } else if (kind === 'instanced') {
-            const mesh = bottom(this.#tree(object.geometry));
-            for (let i = 0; i < object.count; i++) {
-              object.getMatrixAt(i, _m);
-              push(_w.multiplyMatrices(w, _m), mesh, base + i, `${name}'s instance ${i}`);
-            }
-            src.count = object.count;
-          } else {
-            const info = object._instanceInfo;
-            for (let i = 0; i < info.length; i++) {
-              if (!info[i].visible || !info[i].active) continue;
-              const g = info[i].geometryIndex;
-              object.getMatrixAt(i, _m);
-              push(_w.multiplyMatrices(w, _m), bottom(this.#batchTree(object, g)), base + i, `${name}'s instance ${i}`);
-            }
-            src.count = info.length;
-          }
-          nextId += src.count;
-          sources.push(src);
-        }
+        const kind = kindOf(object);
+        let seg = null;
+        if (kind === 'mesh') seg = this.segments.mesh(object, this.trees.of(object.geometry), nameOf(object, kind));
+        else if (kind === 'instanced') seg = this.segments.instanced(object, this.trees.of(object.geometry), nameOf(object, kind));
+        else if (kind === 'batched') seg = this.segments.batched(object, (g) => this.trees.ofBatch(object, g), nameOf(object, kind));
+        if (seg) {
+          sources.push({ object, kind, seg, base: nextId });
+          nextId += seg.count;
+        } else if (kind !== 'skip') others.push(object);
       }
       if (recursive) for (const child of object.children) visit(child);
     };
     for (const object of objects) visit(object);
-    this.scratch = words;
+    if (nextId >= 2 ** 32) throw new RangeError(`kdray/three: ${nextId} instances, more than ids hold (2^32)`);
     this.sources = sources;
-
     const found = [];
-    if (n > 0) {
-      this.#update(meshes, words, n);
-      this.#cast(raycaster, found);
-    }
+    if (this.#update(sources)) this.#cast(raycaster, found);
     for (const object of others) object.raycast(raycaster, found);
     found.sort((x, y) => x.distance - y.distance);
     for (const hit of found) intersects.push(hit);
     return intersects;
   }
 
-  // 'mesh', 'instanced', 'batched' for what the top level takes; null for three's own raycast;
-  // 'skip' for what three's raycast would not hit (no material, no triangles).
-  #kind(object) {
-    if (!object.isMesh || object.isSkinnedMesh) return null; // Object3D's raycast finds nothing
-    const g = object.geometry;
-    if (object.material === undefined || !g?.attributes?.position) return 'skip';
-    if (g.morphAttributes?.position?.length || !affine(object.matrixWorld.elements)) return null;
-    if (object.isBatchedMesh) return 'batched';
-    const corners = g.index ? g.index.count : g.attributes.position.count;
-    if (corners < 3) return 'skip';
-    return object.isInstancedMesh ? 'instanced' : 'mesh';
-  }
-
-  // The tree of a geometry, built now or kept from before.
-  #tree(geometry) {
-    const pos = geometry.attributes.position;
-    const idx = geometry.index;
-    let t = this.trees.get(geometry);
-    const version = `${pos.version}/${idx?.version}/${pos.count}/${idx?.count}`;
-    if (t?.scene && t.version === version && t.pos === pos && t.idx === idx) return t.scene;
-    if (!t) {
-      t = { batches: new Map() };
-      this.trees.set(geometry, t);
-      geometry.addEventListener('dispose', () => this.#forget(geometry));
+  // The top level of these sources: kept when they are the last call's with the same segments;
+  // otherwise placed again (and made again with the trees in use when one is new). Returns
+  // whether anything is placed.
+  #update(sources) {
+    const last = this.placed;
+    if (this.top && last && last.length === sources.length && sources.every((s, i) => s.seg === last[i].seg && s.base === last[i].base)) {
+      return sources.length > 0;
     }
-    t.scene?.dispose();
-    t.scene = Scene.buildSync(positionsOf(pos, 0, pos.count), idx ? Uint32Array.from(idx.array.subarray(0, idx.count)) : undefined, this.buildOptions);
-    Object.assign(t, { version, pos, idx });
-    return t.scene;
-  }
-
-  // The tree of geometry `g` of a BatchedMesh: its vertices and its index range (indices made
-  // relative to its first vertex), so that faces count from its range's start.
-  #batchTree(batched, g) {
-    const geometry = batched.geometry;
-    const pos = geometry.attributes.position;
-    const idx = geometry.index;
-    const info = batched._geometryInfo[g];
-    const version = `${pos.version}/${idx?.version}/${info.start}/${info.count}/${info.vertexStart}/${info.vertexCount}`;
-    let t = this.trees.get(geometry);
-    if (!t) {
-      t = { batches: new Map() };
-      this.trees.set(geometry, t);
-      geometry.addEventListener('dispose', () => this.#forget(geometry));
+    if (sources.length === 0) {
+      this.dispose();
+      return false;
     }
-    const kept = t.batches.get(g);
-    if (kept && kept.version === version) return kept.scene;
-    kept?.scene.dispose();
-    let scene;
-    if (idx) {
-      const indices = new Uint32Array(info.count);
-      for (let i = 0; i < info.count; i++) indices[i] = idx.getX(info.start + i) - info.vertexStart;
-      scene = Scene.buildSync(positionsOf(pos, info.vertexStart, info.vertexCount), indices, this.buildOptions);
-    } else {
-      scene = Scene.buildSync(positionsOf(pos, info.start, info.count), undefined, this.buildOptions);
+    let fresh = !this.top;
+    for (const { seg } of sources) {
+      for (const scene of seg.scenes) {
+        if (!this.slots.has(scene)) fresh = true;
+      }
     }
-    t.batches.set(g, { scene, version });
-    return scene;
-  }
-
-  #forget(geometry) {
-    const t = this.trees.get(geometry);
-    if (!t) return;
-    this.trees.delete(geometry);
-    this.dispose(); // the top level may place the trees; it is made again on the next call
-    t.scene?.dispose();
-    for (const b of t.batches.values()) b.scene.dispose();
-  }
-
-  // The top level of these meshes and placements: kept when both are the last call's.
-  #update(meshes, words, n) {
-    const same = meshes.length === this.meshes.length && meshes.every((m, i) => m === this.meshes[i]);
-    if (!same) {
-      this.top?.dispose();
-      this.top = new InstancedScene(meshes);
-      this.meshes = meshes;
-      this.words = new Uint32Array(0);
+    if (fresh) {
+      const slots = new Map();
+      for (const { seg } of sources) for (const scene of seg.scenes) if (!slots.has(scene)) slots.set(scene, slots.size);
+      const top = new InstancedScene([...slots.keys()]);
+      this.dispose();
+      [this.top, this.slots] = [top, slots];
     }
-    const old = this.words;
-    let changed = old.length !== WORDS * n;
-    for (let i = 0; !changed && i < old.length; i++) changed = old[i] !== words[i];
-    if (changed) {
-      this.words = words.slice(0, WORDS * n);
-      placeWords(this.top, this.words);
+    let total = 0;
+    for (const { seg } of sources) total += seg.words.length;
+    const words = new Uint32Array(total);
+    let at = 0;
+    for (const { seg, base } of sources) {
+      words.set(seg.words, at);
+      const single = seg.scene ? this.slots.get(seg.scene) : -1;
+      for (let j = 0; j < seg.locals.length; j++, at += WORDS) {
+        words[at + 12] = single >= 0 ? single : this.slots.get(seg.scenes[j]);
+        words[at + 13] = base + seg.locals[j];
+      }
     }
+    placeWords(this.top, words);
+    this.placed = sources;
+    return true;
   }
 
   // The closest hit (raycaster.firstHitOnly) or every hit along the ray, stepping over hits
@@ -338,21 +244,6 @@ function drawn(geometry, materials, face) {
 function corners(geometry, face) {
   const idx = geometry.index;
   return idx ? [idx.getX(3 * face), idx.getX(3 * face + 1), idx.getX(3 * face + 2)] : [3 * face, 3 * face + 1, 3 * face + 2];
-}
-
-// Float32 positions of vertices `first .. first + count` (a view where the attribute is a plain
-// Float32Array of 3 a vertex, else a copy).
-function positionsOf(pos, first, count) {
-  if (!pos.isInterleavedBufferAttribute && pos.array instanceof Float32Array && pos.itemSize === 3) {
-    return pos.array.subarray(3 * first, 3 * (first + count));
-  }
-  const out = new Float32Array(3 * count);
-  for (let i = 0; i < count; i++) {
-    out[3 * i] = pos.getX(first + i);
-    out[3 * i + 1] = pos.getY(first + i);
-    out[3 * i + 2] = pos.getZ(first + i);
-  }
-  return out;
 }
 
 let shared = null;

@@ -1,0 +1,102 @@
+// The placements of one object of a hierarchy for kdray/three's HierarchyRaycaster: a segment
+// of InstancedScene's packed placements (14 words each: the world transform as a 3×4 row-major
+// f32 matrix, then two words the caster fills in — the tree's slot and the id), kept per object
+// and computed again only when what it depends on changed: the object's world matrix and tree,
+// and for an InstancedMesh its `count` and `instanceMatrix` (the array, or its `version`, which
+// `needsUpdate = true` moves — as three.js requires to draw moved instances). A BatchedMesh's
+// segment is computed on every call.
+
+export const WORDS = 14;
+
+const same16 = (a, b) => {
+  for (let k = 0; k < 16; k++) if (a[k] !== b[k]) return false;
+  return true;
+};
+
+// Writes the rows of W·I (W, I column-major 4×4 at offsets 0 and `o`; I affine) as placement
+// `at` of `f`; false if a number is not finite.
+function rows(f, at, w, a, o) {
+  for (let r = 0; r < 3; r++) {
+    for (let c = 0; c < 4; c++) {
+      const x = w[r] * a[o + 4 * c] + w[4 + r] * a[o + 4 * c + 1] + w[8 + r] * a[o + 4 * c + 2] + w[12 + r] * a[o + 4 * c + 3];
+      if (!Number.isFinite(x)) return false;
+      f[at + 4 * r + c] = x;
+    }
+  }
+  return true;
+}
+
+const IDENTITY = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
+const affine = (a, o) => a[o + 3] === 0 && a[o + 7] === 0 && a[o + 11] === 0 && a[o + 15] === 1;
+
+function notFinite(what, e) {
+  return new RangeError(`kdray/three: ${what} has a world matrix that is not finite (elements ${[...e]})`);
+}
+
+/** Segments by object, kept between calls. */
+export class Segments {
+  constructor() {
+    this.kept = new WeakMap();
+  }
+
+  /**
+   * The segment of a Mesh placing `scene`: `{ words, scenes, count, locals }` — `scenes` the tree
+   * of each placement, `locals` each placement's index within the object (its instanceId or
+   * batchId), `count` the ids the object spans — kept when unchanged (then the same object).
+   */
+  mesh(object, scene, name) {
+    const e = object.matrixWorld.elements;
+    const s = this.kept.get(object);
+    if (s && s.scene === scene && same16(s.world, e)) return s;
+    const words = new Uint32Array(WORDS);
+    if (!rows(new Float32Array(words.buffer), 0, e, IDENTITY, 0)) throw notFinite(name(), e);
+    const seg = { scene, world: Float64Array.from(e), words, scenes: [scene], locals: [0], count: 1 };
+    this.kept.set(object, seg);
+    return seg;
+  }
+
+  /** The segment of an InstancedMesh (as `mesh`), or null if an instance matrix is projective. */
+  instanced(object, scene, name) {
+    const e = object.matrixWorld.elements;
+    const im = object.instanceMatrix;
+    const n = object.count;
+    const s = this.kept.get(object);
+    if (s && s.scene === scene && s.array === im.array && s.version === im.version && s.n === n && same16(s.world, e)) return s;
+    const words = new Uint32Array(WORDS * n);
+    const f = new Float32Array(words.buffer);
+    const a = im.array;
+    for (let i = 0; i < n; i++) {
+      if (!affine(a, 16 * i)) return null;
+      if (!rows(f, WORDS * i, e, a, 16 * i)) throw notFinite(`${name()}'s instance ${i}`, combined(e, a, 16 * i));
+    }
+    const locals = new Uint32Array(n).map((_, i) => i);
+    const seg = { scene, world: Float64Array.from(e), array: a, version: im.version, n, words, scenes: new Array(n).fill(scene), locals, count: n };
+    this.kept.set(object, seg);
+    return seg;
+  }
+
+  /** The segment of a BatchedMesh's visible, active instances (`treeOf(g)`: geometry g's tree). */
+  batched(object, treeOf, name) {
+    const e = object.matrixWorld.elements;
+    const info = object._instanceInfo;
+    const a = object._matricesTexture.image.data;
+    const scenes = [], locals = [];
+    const words = new Uint32Array(WORDS * info.length);
+    const f = new Float32Array(words.buffer);
+    for (let i = 0; i < info.length; i++) {
+      if (!info[i].visible || !info[i].active) continue;
+      if (!affine(a, 16 * i)) return null;
+      if (!rows(f, WORDS * scenes.length, e, a, 16 * i)) throw notFinite(`${name()}'s instance ${i}`, combined(e, a, 16 * i));
+      scenes.push(treeOf(info[i].geometryIndex));
+      locals.push(i);
+    }
+    return { words: words.subarray(0, WORDS * scenes.length), scenes, locals, count: info.length };
+  }
+}
+
+// The column-major product W·I (for the message of a matrix that is not finite).
+function combined(w, a, o) {
+  const out = [];
+  for (let c = 0; c < 4; c++) for (let r = 0; r < 4; r++) out.push(w[r] * a[o + 4 * c] + w[4 + r] * a[o + 4 * c + 1] + w[8 + r] * a[o + 4 * c + 2] + w[12 + r] * a[o + 4 * c + 3]);
+  return out;
+}
