@@ -1,11 +1,16 @@
 // InstancedScene (a scene of many meshes) against references that do not use it: a brute-force
 // f64 ray/triangle test over every instance's triangles carried to world space, and, where the
 // transforms are translations exact in f32, the merged mesh's own walk, bit for bit. Then bad
-// input, moving instances, and disposing a mesh that a top level still places.
+// input, moving instances, disposing a mesh that a top level still places, and the README's
+// examples.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { Scene, InstancedScene } from '../src/index.js';
 import { bunny, rays, rng, soup } from './meshes.mjs';
+import { spawnSync } from 'node:child_process';
+import { mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
+import { dirname, join } from 'node:path';
+import { fileURLToPath } from 'node:url';
 
 // A 3×4 row-major transform: rotation about a random axis, scales (negative ones mirror), shift.
 function randomTransform(r) {
@@ -216,4 +221,29 @@ test('bad input is refused with the argument named; a disposed mesh stays placed
   assert.throws(() => new InstancedScene([scene]), /meshes\[0\] was disposed/);
   world.dispose();
   assert.throws(() => world.raycast([0.2, 0.2, 1], [0, 0, -1]), /was disposed/);
+});
+
+test('the README\'s examples for scenes of many meshes run as written and print what it says', () => {
+  const pkg = join(dirname(fileURLToPath(import.meta.url)), '..');
+  const readme = readFileSync(join(pkg, 'README.md'), 'utf8');
+  const section = readme.slice(readme.indexOf('## Scenes of many meshes'), readme.indexOf('## Building on a worker'));
+  const [core, three] = [...section.matchAll(/```js\n([\s\S]*?)```/g)].map((m) => m[1]);
+  const printed = section.match(/prints\n```\n([\s\S]*?)```/)[1];
+  // Inside the package, so that `kdray` resolves to itself and `three` to its dev dependency.
+  const dir = mkdtempSync(join(pkg, '.readme-instances-'));
+  try {
+    const run = (code) => {
+      writeFileSync(join(dir, 'example.mjs'), code);
+      const r = spawnSync(process.execPath, [join(dir, 'example.mjs')], { encoding: 'utf8' });
+      assert.equal(r.status, 0, r.stderr);
+      return r.stdout;
+    };
+    assert.equal(run(core), printed);
+    // The ball (radius 1, 32 × 16 segments) is hit first, about 4 from the origin at z = 5.
+    const [type, instanceId, batchId, distance] = run(three).trim().split(' ');
+    assert.deepEqual([type, instanceId, batchId], ['Mesh', 'undefined', 'undefined']);
+    assert.ok(Math.abs(+distance - 4) < 0.01, distance);
+  } finally {
+    rmSync(dir, { recursive: true, force: true });
+  }
 });
