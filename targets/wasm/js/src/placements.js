@@ -3,8 +3,9 @@
 // f32 matrix, then two words the caster fills in — the tree's slot and the id), kept per object
 // and computed again only when what it depends on changed: the object's world matrix and tree,
 // and for an InstancedMesh its `count` and `instanceMatrix` (the array, or its `version`, which
-// `needsUpdate = true` moves — as three.js requires to draw moved instances). A BatchedMesh's
-// segment is computed on every call.
+// `needsUpdate = true` moves — as three.js requires to draw moved instances), for a BatchedMesh
+// its matrices texture's version (`setMatrixAt` moves it) and which instances are visible and
+// active, with which geometry.
 
 export const WORDS = 14;
 
@@ -75,22 +76,36 @@ export class Segments {
     return seg;
   }
 
-  /** The segment of a BatchedMesh's visible, active instances (`treeOf(g)`: geometry g's tree). */
+  /**
+   * The segment of a BatchedMesh's visible, active instances (`treeOf(g)`: geometry g's tree),
+   * kept while its world matrix, its matrices texture's version and every instance's tree stay.
+   */
   batched(object, treeOf, name) {
     const e = object.matrixWorld.elements;
     const info = object._instanceInfo;
-    const a = object._matricesTexture.image.data;
+    const texture = object._matricesTexture;
     const scenes = [], locals = [];
-    const words = new Uint32Array(WORDS * info.length);
-    const f = new Float32Array(words.buffer);
     for (let i = 0; i < info.length; i++) {
       if (!info[i].visible || !info[i].active) continue;
-      if (!affine(a, 16 * i)) return null;
-      if (!rows(f, WORDS * scenes.length, e, a, 16 * i)) throw notFinite(`${name()}'s instance ${i}`, combined(e, a, 16 * i));
       scenes.push(treeOf(info[i].geometryIndex));
       locals.push(i);
     }
-    return { words: words.subarray(0, WORDS * scenes.length), scenes, locals, count: info.length };
+    const s = this.kept.get(object);
+    if (s && s.version === texture.version && s.data === texture.image.data && s.count === info.length && same16(s.world, e)
+        && s.scenes.length === scenes.length && s.scenes.every((x, k) => x === scenes[k] && s.locals[k] === locals[k])) {
+      return s;
+    }
+    const a = texture.image.data;
+    const words = new Uint32Array(WORDS * scenes.length);
+    const f = new Float32Array(words.buffer);
+    for (let k = 0; k < locals.length; k++) {
+      const i = locals[k];
+      if (!affine(a, 16 * i)) return null;
+      if (!rows(f, WORDS * k, e, a, 16 * i)) throw notFinite(`${name()}'s instance ${i}`, combined(e, a, 16 * i));
+    }
+    const seg = { world: Float64Array.from(e), version: texture.version, data: a, words, scenes, locals, count: info.length };
+    this.kept.set(object, seg);
+    return seg;
   }
 }
 
