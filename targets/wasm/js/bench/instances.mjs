@@ -20,8 +20,8 @@ import { performance } from 'node:perf_hooks';
 import os from 'node:os';
 import * as THREE from 'three';
 import { acceleratedRaycast, computeBoundsTree } from 'three-mesh-bvh';
-import { HierarchyRaycaster, acceleratedIntersectObject, init } from '../src/three.js';
-import { moduleVariant } from '../src/index.js';
+import { acceleratedIntersectObject, init } from '../src/three.js';
+import { moduleVariant, Scene, InstancedScene } from '../src/index.js';
 import { rng } from '../test/meshes.mjs';
 
 const args = process.argv.slice(2);
@@ -97,7 +97,7 @@ const kdFirst = performance.now() - t0;
 // Warm-up, untimed, both engines.
 for (let w = 0; w < 2; w++) { asBvh(); castAll(); asKdray(); castAll(); }
 
-const times = { kdray: [], bvh: [], move: [], moveCast: [] };
+const times = { kdray: [], bvh: [], move: [], moveCast: [], place: [] };
 let refHits, kdHits;
 for (let round = 0; round < rounds; round++) {
   for (const engine of round % 2 ? ['bvh', 'kdray'] : ['kdray', 'bvh']) {
@@ -137,11 +137,24 @@ for (let round = 0; round < 3 * rounds; round++) {
 THREE.Mesh.prototype.raycast = plainMesh;
 THREE.Raycaster.prototype.intersectObject = plainIntersect;
 
+// Of which the module's part: InstancedScene.setInstances of as many placements (the host's
+// top_level, then the core's validation of its words), without the hierarchy.
+const unit = await Scene.build(new Float32Array([0, 0, 0, 1, 0, 0, 0, 1, 0]));
+const alone = new InstancedScene([unit]);
+const transforms = positions.flatMap((p) => [1, 0, 0, p.x, 0, 1, 0, p.y, 0, 0, 1, p.z]);
+const meshIds = new Uint32Array(nInstances);
+for (let round = 0; round < 3 * rounds; round++) {
+  t0 = performance.now();
+  alone.setInstances({ meshes: meshIds, transforms });
+  times.place.push(performance.now() - t0);
+}
+alone.dispose();
+unit.dispose();
+
 const kd = median(times.kdray) / nRays, bvh = median(times.bvh) / nRays;
 console.log(`# ${nMeshes} meshes (${geometries.length} geometries, ${distinct.toLocaleString('en')} distinct triangles, ${meshTriangles.toLocaleString('en')} placed), InstancedMesh of ${nInstances} × ${icoTriangles} triangles; ${nRays} rays, firstHitOnly; medians of ${rounds} rounds`);
 console.log(`# Node ${process.version}, ${os.cpus()[0].model}, load ${os.loadavg().map((x) => x.toFixed(2)).join(' ')}, module ${moduleVariant()}`);
 console.log(`| | kdray ms a ray | three-mesh-bvh ms a ray | ratio | same first hits | build ms (kdray first call / three-mesh-bvh) |`);
 console.log(`|---|---:|---:|---:|---:|---:|`);
 console.log(`| intersectObject(scene) | ${kd.toFixed(3)} | ${bvh.toFixed(3)} | ${(bvh / kd).toFixed(1)}× | ${same}/${nRays} (${hitCount} hits) | ${kdFirst.toFixed(0)} / ${bvhBuild.toFixed(0)} |`);
-console.log(`moving ${nInstances} instances, then intersectObject(scene): ${median(times.move).toFixed(2)} ms (the next call, nothing moved: ${median(times.moveCast).toFixed(2)} ms)`);
-new HierarchyRaycaster().dispose();
+console.log(`moving ${nInstances} instances, then intersectObject(scene): ${median(times.move).toFixed(2)} ms (the next call, nothing moved: ${median(times.moveCast).toFixed(2)} ms); InstancedScene.setInstances of ${nInstances} placements alone: ${median(times.place).toFixed(2)} ms`);
