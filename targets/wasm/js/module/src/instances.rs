@@ -50,6 +50,10 @@ impl Top {
 
     /// Builds the top level of `placements`; returns how many were placed (the rest were not
     /// invertible).
+    ///
+    /// # Errors
+    /// A transform that is not finite or a mesh index out of range (naming the placement), or
+    /// the host's refusal ([`top_level`]); the top level placed before is then kept.
     fn place(&mut self, placements: &[[u32; PLACEMENT_WORDS]]) -> Result<i32, (i32, String)> {
         let bottoms = self.bottoms();
         let mut list = Vec::new();
@@ -77,11 +81,13 @@ impl Top {
                 user_id: p[13],
             });
         }
-        self.clear();
         if list.is_empty() {
+            self.clear();
             return Ok(0);
         }
+        // The old top level stays until the new one is built (a refusal keeps it).
         let words = top_level(bottoms, &list).map_err(bad)?;
+        self.clear();
         let words: &'static mut [u32] = Box::leak(words.into_boxed_slice());
         let ptr: *mut [u32] = words;
         // SAFETY: just leaked; freed by `clear`, which first drops the view.
@@ -441,6 +447,7 @@ mod tests {
         let mut s = State::default();
         let mesh = square(&mut s);
         let top = s.top_new(&[mesh]).unwrap() as u32;
+        assert_eq!(s.top_place(top, &[placement(ID, 0, 3)]).unwrap(), 1);
         let mut nan = ID;
         nan[3] = f32::NAN;
         let e = s
@@ -453,6 +460,9 @@ mod tests {
         );
         let e = s.top_place(top, &[placement(ID, 1, 1)]).unwrap_err();
         assert!(e.1.contains("mesh 1 out of range"), "{}", e.1);
+        // A refusal keeps what was placed.
+        let r = s.top_raycast(top, 0, [0.25, 0.25, 5.0], [0.0, 0.0, -1.0], 0.0, INF);
+        assert_eq!(r.unwrap().unwrap()[4], 3);
         // Nothing placed: every ray misses.
         assert_eq!(s.top_place(top, &[]).unwrap(), 0);
         assert_eq!(
