@@ -41,6 +41,16 @@ function world() {
     (i % 2 ? group : root).add(mesh);
     named[i] = mesh;
   }
+  // Groups with an array of materials (a box's 6 groups, their sides front, double and back in
+  // turn) and a draw range (the first half of a knot's faces).
+  const boxed = new THREE.Mesh(new THREE.BoxGeometry(1.5, 1.5, 1.5), [0, 1, 2, 3, 4, 5].map((k) => new THREE.MeshBasicMaterial({ side: sides[k % 3] })));
+  boxed.position.set(-2, 1, 2);
+  const halfKnot = new THREE.TorusKnotGeometry(0.8, 0.25, 48, 8);
+  halfKnot.setDrawRange(0, Math.floor(halfKnot.index.count / 6) * 3);
+  const ranged = new THREE.Mesh(halfKnot, new THREE.MeshBasicMaterial({ side: THREE.DoubleSide }));
+  ranged.position.set(2, -1, -2);
+  root.add(boxed, ranged);
+  Object.assign(named, { boxed, ranged });
   named[3].visible = false; // hidden
   named[7].layers.set(2); // not on the raycaster's layer; its child is
   const child = new THREE.Mesh(geometries[2], new THREE.MeshBasicMaterial());
@@ -139,6 +149,9 @@ test('the first hit of a hierarchy with InstancedMesh and BatchedMesh is three.j
   const hit = new Set();
   for (const c of casters) for (const h of kd.intersectObject(c, scene.root)) hit.add(h.instanceId !== undefined ? 'instance' : h.batchId !== undefined ? 'batch' : h.object === scene.named[7].children[0] ? 'child' : 'mesh');
   assert.deepEqual([...hit].sort(), ['batch', 'child', 'instance', 'mesh']);
+  const objects = new Set();
+  for (const c of casters) for (const h of kd.intersectObject(c, scene.root)) objects.add(h.object);
+  assert.ok(objects.has(scene.named.boxed) && objects.has(scene.named.ranged), 'the grouped box and the ranged knot are hit');
   for (const c of casters) {
     for (const h of kd.intersectObject(c, scene.root)) {
       assert.notEqual(h.object, scene.named[3], 'the hidden mesh is skipped');
