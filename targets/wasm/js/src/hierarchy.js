@@ -31,11 +31,6 @@ function kindOf(object) {
   return object.isInstancedMesh ? 'instanced' : 'mesh';
 }
 
-const nameOf = (object, kind) => () => {
-  const type = kind === 'instanced' ? 'InstancedMesh' : kind === 'batched' ? 'BatchedMesh' : object.type;
-  return `${type} ${JSON.stringify(object.name)} (${object.uuid})`;
-};
-
 /** A raycaster of whole hierarchies with its caches (trees by geometry, the last top level). */
 export class HierarchyRaycaster {
   /**
@@ -49,8 +44,10 @@ export class HierarchyRaycaster {
     this.segments = new Segments();
     this.top = null; // the InstancedScene of the last call
     this.slots = new Map(); // its meshes: Scene → index
-    this.placed = null; // the sources it places
-    this.sources = []; // [{ object, kind, seg, base }] of the last call, in id order
+    this.placed = []; // the segments it places (placements.js), in id order
+    this.placedBases = []; // the first id of each
+    this.segs = []; // the segments and first ids of this call
+    this.bases = [];
   }
 
   /** Frees the top level (the trees stay with their geometries until those are disposed). */
@@ -58,7 +55,8 @@ export class HierarchyRaycaster {
     this.top?.dispose();
     this.top = null;
     this.slots = new Map();
-    this.placed = null;
+    this.placed = [];
+    this.placedBases = [];
   }
 
   /** As three's `raycaster.intersectObject(object, recursive, intersects)`. */
@@ -68,74 +66,87 @@ export class HierarchyRaycaster {
 
   /** As three's `raycaster.intersectObjects(objects, recursive, intersects)`. */
   intersectObjects(raycaster, objects, recursive = true, intersects = []) {
+    // Per call, only the two arrays below are filled (kept between calls, no object a mesh):
+    // casting a ray is the point, collecting the hierarchy the overhead.
     const others = [];
-    const sources = [];
+    const segs = this.segs;
+    const bases = this.bases;
+    segs.length = 0;
+    bases.length = 0;
     let nextId = 0;
+    const { segments, trees, includeHidden } = this;
+    const layers = raycaster.layers;
     const visit = (object) => {
-      if (!this.includeHidden && object.visible === false) return;
-      if (object.layers.test(raycaster.layers)) {
+      if (!includeHidden && object.visible === false) return;
+      if (object.layers.test(layers)) {
         const kind = kindOf(object);
         let seg = null;
-        if (kind === 'mesh') seg = this.segments.mesh(object, this.trees.of(object.geometry), nameOf(object, kind));
-        else if (kind === 'instanced') seg = this.segments.instanced(object, this.trees.of(object.geometry), nameOf(object, kind));
-        else if (kind === 'batched') seg = this.segments.batched(object, (g) => this.trees.ofBatch(object, g), nameOf(object, kind));
+        if (kind === 'mesh') seg = segments.mesh(object, trees.of(object.geometry));
+        else if (kind === 'instanced') seg = segments.instanced(object, trees.of(object.geometry));
+        else if (kind === 'batched') seg = segments.batched(object, trees);
         if (seg) {
-          sources.push({ object, kind, seg, base: nextId });
+          segs.push(seg);
+          bases.push(nextId);
           nextId += seg.count;
         } else if (kind !== 'skip') others.push(object);
       }
-      if (recursive) for (const child of object.children) visit(child);
+      if (recursive) {
+        const children = object.children;
+        for (let i = 0; i < children.length; i++) visit(children[i]);
+      }
     };
     for (const object of objects) visit(object);
     if (nextId >= 2 ** 32) throw new RangeError(`kdray/three: ${nextId} instances, more than ids hold (2^32)`);
-    this.sources = sources;
     const found = [];
-    if (this.#update(sources)) this.#cast(raycaster, found);
+    if (this.#update(segs, bases)) this.#cast(raycaster, found);
     for (const object of others) object.raycast(raycaster, found);
-    found.sort((x, y) => x.distance - y.distance);
+    if (found.length > 1) found.sort((x, y) => x.distance - y.distance);
     for (const hit of found) intersects.push(hit);
     return intersects;
   }
 
-  // The top level of these sources: kept when they are the last call's with the same segments;
-  // otherwise placed again (and made again with the trees in use when one is new). Returns
-  // whether anything is placed.
-  #update(sources) {
+  // The top level of these segments: kept when they are the last placed (the same objects,
+  // each unchanged); otherwise placed again (and made again with the trees in use when one is
+  // new). Returns whether anything is placed.
+  #update(segs, bases) {
     const last = this.placed;
-    if (this.top && last && last.length === sources.length && sources.every((s, i) => s.seg === last[i].seg && s.base === last[i].base)) {
-      return sources.length > 0;
+    if (this.top && last.length === segs.length) {
+      let same = true;
+      for (let i = 0; same && i < segs.length; i++) same = segs[i] === last[i];
+      if (same) return segs.length > 0;
     }
-    if (sources.length === 0) {
+    if (segs.length === 0) {
       this.dispose();
       return false;
     }
     let fresh = !this.top;
-    for (const { seg } of sources) {
+    for (const seg of segs) {
       for (const scene of seg.scenes) {
         if (!this.slots.has(scene)) fresh = true;
       }
     }
     if (fresh) {
       const slots = new Map();
-      for (const { seg } of sources) for (const scene of seg.scenes) if (!slots.has(scene)) slots.set(scene, slots.size);
+      for (const seg of segs) for (const scene of seg.scenes) if (!slots.has(scene)) slots.set(scene, slots.size);
       const top = new InstancedScene([...slots.keys()]);
       this.dispose();
       [this.top, this.slots] = [top, slots];
     }
     let total = 0;
-    for (const { seg } of sources) total += seg.words.length;
+    for (const seg of segs) total += seg.words.length;
     const words = new Uint32Array(total);
     let at = 0;
-    for (const { seg, base } of sources) {
+    segs.forEach((seg, i) => {
       words.set(seg.words, at);
       const single = seg.scene ? this.slots.get(seg.scene) : -1;
       for (let j = 0; j < seg.locals.length; j++, at += WORDS) {
         words[at + 12] = single >= 0 ? single : this.slots.get(seg.scenes[j]);
-        words[at + 13] = base + seg.locals[j];
+        words[at + 13] = bases[i] + seg.locals[j];
       }
-    }
+    });
     placeWords(this.top, words);
-    this.placed = sources;
+    this.placed = segs.slice();
+    this.placedBases = bases.slice();
     return true;
   }
 
@@ -160,9 +171,10 @@ export class HierarchyRaycaster {
 
   // three's Intersection for a hit, or null when three's raycast would not report it.
   #intersection(hit, d) {
-    const src = findSource(this.sources, hit.id);
+    const k = findSource(this.placedBases, hit.id);
+    const src = this.placed[k];
     const object = src.object;
-    const instance = hit.id - src.base;
+    const instance = hit.id - this.placedBases[k];
     const geometry = object.geometry;
     let face = hit.faceIndex;
     let material = object.material;
@@ -208,15 +220,15 @@ export class HierarchyRaycaster {
   }
 }
 
-// The source whose ids hold `id` (sources are in id order).
-function findSource(sources, id) {
-  let lo = 0, hi = sources.length - 1;
+// The index of the segment whose ids hold `id` (`bases`: each one's first id, ascending).
+function findSource(bases, id) {
+  let lo = 0, hi = bases.length - 1;
   while (lo < hi) {
     const mid = (lo + hi + 1) >> 1;
-    if (sources[mid].base <= id) lo = mid;
+    if (bases[mid] <= id) lo = mid;
     else hi = mid - 1;
   }
-  return sources[lo];
+  return lo;
 }
 
 // The world matrix of instance `i` of a source.

@@ -30,7 +30,9 @@ function rows(f, at, w, a, o) {
 const IDENTITY = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
 const affine = (a, o) => a[o + 3] === 0 && a[o + 7] === 0 && a[o + 11] === 0 && a[o + 15] === 1;
 
-function notFinite(what, e) {
+// The object (and instance) a matrix that is not finite belongs to, named for the error.
+function notFinite(object, type, instance, e) {
+  const what = `${type} ${JSON.stringify(object.name)} (${object.uuid})${instance === null ? '' : `'s instance ${instance}`}`;
   return new RangeError(`kdray/three: ${what} has a world matrix that is not finite (elements ${[...e]})`);
 }
 
@@ -41,23 +43,24 @@ export class Segments {
   }
 
   /**
-   * The segment of a Mesh placing `scene`: `{ words, scenes, count, locals }` — `scenes` the tree
+   * The segment of a Mesh placing `scene`: `{ object, kind, words, scenes, count, locals }` —
+   * `scenes` the tree
    * of each placement, `locals` each placement's index within the object (its instanceId or
    * batchId), `count` the ids the object spans — kept when unchanged (then the same object).
    */
-  mesh(object, scene, name) {
+  mesh(object, scene) {
     const e = object.matrixWorld.elements;
     const s = this.kept.get(object);
     if (s && s.scene === scene && same16(s.world, e)) return s;
     const words = new Uint32Array(WORDS);
-    if (!rows(new Float32Array(words.buffer), 0, e, IDENTITY, 0)) throw notFinite(name(), e);
-    const seg = { scene, world: Float64Array.from(e), words, scenes: [scene], locals: [0], count: 1 };
+    if (!rows(new Float32Array(words.buffer), 0, e, IDENTITY, 0)) throw notFinite(object, object.type, null, e);
+    const seg = { object, kind: 'mesh', scene, world: Float64Array.from(e), words, scenes: [scene], locals: [0], count: 1 };
     this.kept.set(object, seg);
     return seg;
   }
 
   /** The segment of an InstancedMesh (as `mesh`), or null if an instance matrix is projective. */
-  instanced(object, scene, name) {
+  instanced(object, scene) {
     const e = object.matrixWorld.elements;
     const im = object.instanceMatrix;
     const n = object.count;
@@ -68,26 +71,26 @@ export class Segments {
     const a = im.array;
     for (let i = 0; i < n; i++) {
       if (!affine(a, 16 * i)) return null;
-      if (!rows(f, WORDS * i, e, a, 16 * i)) throw notFinite(`${name()}'s instance ${i}`, combined(e, a, 16 * i));
+      if (!rows(f, WORDS * i, e, a, 16 * i)) throw notFinite(object, 'InstancedMesh', i, combined(e, a, 16 * i));
     }
     const locals = new Uint32Array(n).map((_, i) => i);
-    const seg = { scene, world: Float64Array.from(e), array: a, version: im.version, n, words, scenes: new Array(n).fill(scene), locals, count: n };
+    const seg = { object, kind: 'instanced', scene, world: Float64Array.from(e), array: a, version: im.version, n, words, scenes: new Array(n).fill(scene), locals, count: n };
     this.kept.set(object, seg);
     return seg;
   }
 
   /**
-   * The segment of a BatchedMesh's visible, active instances (`treeOf(g)`: geometry g's tree),
+   * The segment of a BatchedMesh's visible, active instances (`trees`: GeometryTrees),
    * kept while its world matrix, its matrices texture's version and every instance's tree stay.
    */
-  batched(object, treeOf, name) {
+  batched(object, trees) {
     const e = object.matrixWorld.elements;
     const info = object._instanceInfo;
     const texture = object._matricesTexture;
     const scenes = [], locals = [];
     for (let i = 0; i < info.length; i++) {
       if (!info[i].visible || !info[i].active) continue;
-      scenes.push(treeOf(info[i].geometryIndex));
+      scenes.push(trees.ofBatch(object, info[i].geometryIndex));
       locals.push(i);
     }
     const s = this.kept.get(object);
@@ -101,9 +104,9 @@ export class Segments {
     for (let k = 0; k < locals.length; k++) {
       const i = locals[k];
       if (!affine(a, 16 * i)) return null;
-      if (!rows(f, WORDS * k, e, a, 16 * i)) throw notFinite(`${name()}'s instance ${i}`, combined(e, a, 16 * i));
+      if (!rows(f, WORDS * k, e, a, 16 * i)) throw notFinite(object, 'BatchedMesh', i, combined(e, a, 16 * i));
     }
-    const seg = { world: Float64Array.from(e), version: texture.version, data: a, words, scenes, locals, count: info.length };
+    const seg = { object, kind: 'batched', world: Float64Array.from(e), version: texture.version, data: a, words, scenes, locals, count: info.length };
     this.kept.set(object, seg);
     return seg;
   }
