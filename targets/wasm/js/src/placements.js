@@ -39,7 +39,9 @@ function notFinite(object, type, instance, e) {
 /** Segments by object, kept between calls. */
 export class Segments {
   constructor() {
-    this.kept = new WeakMap();
+    // Kept on the object under a symbol of this caster's: a property load where a WeakMap
+    // lookup cost a measurable share of a call over a thousand objects.
+    this.key = Symbol('kdray segment');
   }
 
   /**
@@ -50,12 +52,12 @@ export class Segments {
    */
   mesh(object, scene) {
     const e = object.matrixWorld.elements;
-    const s = this.kept.get(object);
+    const s = object[this.key];
     if (s && s.scene === scene && same16(s.world, e)) return s;
     const words = new Uint32Array(WORDS);
     if (!rows(new Float32Array(words.buffer), 0, e, IDENTITY, 0)) throw notFinite(object, object.type, null, e);
     const seg = { object, kind: 'mesh', scene, world: Float64Array.from(e), words, scenes: [scene], locals: [0], count: 1 };
-    this.kept.set(object, seg);
+    object[this.key] = seg;
     return seg;
   }
 
@@ -64,7 +66,7 @@ export class Segments {
     const e = object.matrixWorld.elements;
     const im = object.instanceMatrix;
     const n = object.count;
-    const s = this.kept.get(object);
+    const s = object[this.key];
     if (s && s.scene === scene && s.array === im.array && s.version === im.version && s.n === n && same16(s.world, e)) return s;
     const words = new Uint32Array(WORDS * n);
     const f = new Float32Array(words.buffer);
@@ -75,7 +77,7 @@ export class Segments {
     }
     const locals = new Uint32Array(n).map((_, i) => i);
     const seg = { object, kind: 'instanced', scene, world: Float64Array.from(e), array: a, version: im.version, n, words, scenes: new Array(n).fill(scene), locals, count: n };
-    this.kept.set(object, seg);
+    object[this.key] = seg;
     return seg;
   }
 
@@ -93,7 +95,7 @@ export class Segments {
       scenes.push(trees.ofBatch(object, info[i].geometryIndex));
       locals.push(i);
     }
-    const s = this.kept.get(object);
+    const s = object[this.key];
     if (s && s.version === texture.version && s.data === texture.image.data && s.count === info.length && same16(s.world, e)
         && s.scenes.length === scenes.length && s.scenes.every((x, k) => x === scenes[k] && s.locals[k] === locals[k])) {
       return s;
@@ -107,7 +109,7 @@ export class Segments {
       if (!rows(f, WORDS * k, e, a, 16 * i)) throw notFinite(object, 'BatchedMesh', i, combined(e, a, 16 * i));
     }
     const seg = { object, kind: 'batched', world: Float64Array.from(e), version: texture.version, data: a, words, scenes, locals, count: info.length };
-    this.kept.set(object, seg);
+    object[this.key] = seg;
     return seg;
   }
 }

@@ -8,14 +8,16 @@ export class GeometryTrees {
   constructor(options, onForget) {
     this.options = options;
     this.onForget = onForget;
-    this.map = new WeakMap(); // geometry → { scene, pos, idx, posVersion, idxVersion, batches }
+    // On the geometry under a symbol of this cache's (a property load, not a WeakMap lookup):
+    // { scene, pos, idx, posVersion, idxVersion, batches }.
+    this.key = Symbol('kdray trees');
   }
 
   #entry(geometry) {
-    let t = this.map.get(geometry);
+    let t = geometry[this.key];
     if (!t) {
       t = { scene: null, batches: new Map() };
-      this.map.set(geometry, t);
+      geometry[this.key] = t;
       geometry.addEventListener('dispose', () => this.forget(geometry));
     }
     return t;
@@ -66,9 +68,9 @@ export class GeometryTrees {
 
   /** Frees a geometry's trees (its 'dispose' event calls this). */
   forget(geometry) {
-    const t = this.map.get(geometry);
+    const t = geometry[this.key];
     if (!t) return;
-    this.map.delete(geometry);
+    delete geometry[this.key];
     this.onForget(); // a top level may place the trees: it goes first
     t.scene?.dispose();
     for (const b of t.batches.values()) b.scene.dispose();
