@@ -121,9 +121,7 @@ export class HierarchyRaycaster {
     }
     let fresh = !this.top;
     for (const seg of segs) {
-      for (const scene of seg.scenes) {
-        if (!this.slots.has(scene)) fresh = true;
-      }
+      for (const scene of seg.scenes) fresh ||= !this.slots.has(scene);
     }
     if (fresh) {
       const slots = new Map();
@@ -138,10 +136,19 @@ export class HierarchyRaycaster {
     let at = 0;
     segs.forEach((seg, i) => {
       words.set(seg.words, at);
-      const single = seg.scene ? this.slots.get(seg.scene) : -1;
-      for (let j = 0; j < seg.locals.length; j++, at += WORDS) {
-        words[at + 12] = single >= 0 ? single : this.slots.get(seg.scenes[j]);
-        words[at + 13] = bases[i] + seg.locals[j];
+      const n = seg.words.length / WORDS;
+      if (seg.scene) {
+        // One tree, instances 0 … n − 1 (a Mesh, an InstancedMesh).
+        const slot = this.slots.get(seg.scene);
+        for (let j = 0; j < n; j++, at += WORDS) {
+          words[at + 12] = slot;
+          words[at + 13] = bases[i] + j;
+        }
+      } else {
+        for (let j = 0; j < n; j++, at += WORDS) {
+          words[at + 12] = this.slots.get(seg.scenes[j]);
+          words[at + 13] = bases[i] + seg.locals[j];
+        }
       }
     });
     placeWords(this.top, words);

@@ -45,10 +45,10 @@ export class Segments {
   }
 
   /**
-   * The segment of a Mesh placing `scene`: `{ object, kind, words, scenes, count, locals }` —
-   * `scenes` the tree
-   * of each placement, `locals` each placement's index within the object (its instanceId or
-   * batchId), `count` the ids the object spans — kept when unchanged (then the same object).
+   * The segment of a Mesh placing `scene`: `{ object, kind, words, scenes, locals, count }` —
+   * with one tree (a Mesh, an InstancedMesh) `scene` is it and placement j is instance j; else
+   * (a BatchedMesh) `scenes[j]` is placement j's tree and `locals[j]` its instance (batchId);
+   * `count` the ids the object spans. Kept while unchanged (then the same object).
    */
   mesh(object, scene) {
     const e = object.matrixWorld.elements;
@@ -75,8 +75,7 @@ export class Segments {
       if (!affine(a, 16 * i)) return null;
       if (!rows(f, WORDS * i, e, a, 16 * i)) throw notFinite(object, 'InstancedMesh', i, combined(e, a, 16 * i));
     }
-    const locals = new Uint32Array(n).map((_, i) => i);
-    const seg = { object, kind: 'instanced', scene, world: Float64Array.from(e), array: a, version: im.version, n, words, scenes: new Array(n).fill(scene), locals, count: n };
+    const seg = { object, kind: 'instanced', scene, world: Float64Array.from(e), array: a, version: im.version, n, words, scenes: [scene], locals: null, count: n };
     object[this.key] = seg;
     return seg;
   }
