@@ -226,3 +226,22 @@ test('a world matrix that is not finite is refused, naming the object', () => {
   assert.ok(Array.isArray(kd.intersectObject(c, scene.root)));
   kd.dispose();
 });
+
+test('geometry.dispose() frees its tree; the next call builds it again and answers the same', () => {
+  const scene = world();
+  const kd = new HierarchyRaycaster();
+  const casters = rays(80, 4);
+  const first = (c) => {
+    c.firstHitOnly = true;
+    const h = kd.intersectObject(c, scene.root)[0];
+    return h && [h.object.uuid, h.instanceId, h.batchId, h.faceIndex, h.distance];
+  };
+  const before = casters.map(first);
+  const held = (g) => Object.getOwnPropertySymbols(g).length;
+  assert.equal(held(scene.geometries[1]), 1, 'the knot holds its tree');
+  scene.geometries[1].dispose();
+  assert.equal(held(scene.geometries[1]), 0, 'disposed: its tree is gone');
+  assert.deepEqual(casters.map(first), before);
+  assert.ok(before.some((h) => h && h[0] !== undefined), 'rays hit');
+  kd.dispose();
+});
