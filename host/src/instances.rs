@@ -61,6 +61,13 @@ struct Item {
     record: [u32; RECORD_WORDS],
 }
 
+/// What the splits sort: an item's centre and its index.
+#[derive(Clone, Copy)]
+struct Key {
+    centre: Vec3,
+    at: u32,
+}
+
 /// The words of the top level placing `bottoms` as `placements` say, records in the tree's
 /// leaf order (a hit's [`instance`](kdray_core::instance::InstanceHit::instance) indexes them;
 /// its `user_id` is the placement's).
@@ -74,14 +81,23 @@ pub fn top_level(bottoms: &[Scene], placements: &[Placement]) -> Result<Vec<u32>
         return Err("a top level needs at least one instance".into());
     }
     u32::try_from(placements.len()).map_err(|_| "more than 2^32 - 1 instances".to_string())?;
-    let mut items = placements
+    let items = placements
         .iter()
         .enumerate()
         .map(|(i, p)| item(bottoms, i, p))
         .collect::<Result<Vec<_>, _>>()?;
+    // The median splits move these 16-byte keys, not the items (a record is 128 bytes).
+    let mut keys: Vec<Key> = items
+        .iter()
+        .enumerate()
+        .map(|(at, it)| Key {
+            centre: it.centre,
+            at: at as u32,
+        })
+        .collect();
     let mut nodes = Vec::with_capacity(2 * placements.len() / LEAF_MAX + 1);
     let mut records = Vec::with_capacity(placements.len());
-    let depth = subtree(&mut items, &mut nodes, &mut records, 0);
+    let depth = subtree(&items, &mut keys, &mut nodes, &mut records, 0);
     let total = HEADER_WORDS + NODE_WORDS * nodes.len() + RECORD_WORDS * records.len();
     let mut words = vec![0u32; HEADER_WORDS];
     words.reserve(total - HEADER_WORDS);
@@ -135,37 +151,39 @@ fn box_words(b: [Vec3; 2]) -> [u32; 6] {
     [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z].map(f32::to_bits)
 }
 
-/// Appends the subtree over `items` to `nodes` in pre-order and its leaves' records to
-/// `records`; returns its depth below `depth`'s level (the deepest leaf's depth).
+/// Appends the subtree over the items that `keys` name to `nodes` in pre-order and its leaves'
+/// records to `records`; returns its depth below `depth`'s level (the deepest leaf's depth).
 fn subtree(
-    items: &mut [Item],
+    items: &[Item],
+    keys: &mut [Key],
     nodes: &mut Vec<[u32; NODE_WORDS]>,
     records: &mut Vec<[u32; RECORD_WORDS]>,
     depth: u32,
 ) -> u32 {
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     let (mut clo, mut chi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for it in items.iter() {
-        (lo, hi) = (lo.min(it.bounds[0]), hi.max(it.bounds[1]));
-        (clo, chi) = (clo.min(it.centre), chi.max(it.centre));
+    for k in keys.iter() {
+        let b = items[k.at as usize].bounds;
+        (lo, hi) = (lo.min(b[0]), hi.max(b[1]));
+        (clo, chi) = (clo.min(k.centre), chi.max(k.centre));
     }
     let at = nodes.len();
     let mut nd = [0u32; NODE_WORDS];
     nd[node::BOX..node::BOX + 6].copy_from_slice(&box_words([lo, hi]));
-    if items.len() <= LEAF_MAX {
+    if keys.len() <= LEAF_MAX {
         nd[node::CHILD_OR_FIRST] = records.len() as u32;
-        nd[node::COUNT] = items.len() as u32;
+        nd[node::COUNT] = keys.len() as u32;
         nodes.push(nd);
-        records.extend(items.iter().map(|it| it.record));
+        records.extend(keys.iter().map(|k| items[k.at as usize].record));
         return depth;
     }
     nodes.push(nd);
     let axis = (chi - clo).max_position();
-    let mid = items.len() / 2;
-    items.select_nth_unstable_by(mid, |a, b| a.centre[axis].total_cmp(&b.centre[axis]));
-    let (below, above) = items.split_at_mut(mid);
-    let d0 = subtree(below, nodes, records, depth + 1);
+    let mid = keys.len() / 2;
+    keys.select_nth_unstable_by(mid, |a, b| a.centre[axis].total_cmp(&b.centre[axis]));
+    let (below, above) = keys.split_at_mut(mid);
+    let d0 = subtree(items, below, nodes, records, depth + 1);
     nodes[at][node::CHILD_OR_FIRST] = nodes.len() as u32;
-    let d1 = subtree(above, nodes, records, depth + 1);
+    let d1 = subtree(items, above, nodes, records, depth + 1);
     d0.max(d1)
 }

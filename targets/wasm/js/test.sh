@@ -2,7 +2,8 @@
 # The npm package's checks, as scripts/targets.sh runs them: builds both modules (build.sh),
 # installs the test dependencies (npm ci: three, three-mesh-bvh, pinned by package-lock.json),
 # runs the module's Rust unit tests and the node --test suite (against three.js and
-# three-mesh-bvh, bad input, crossings, the worker, out of memory on a memory-limited module,
+# three-mesh-bvh, scenes of many meshes and whole hierarchies with InstancedMesh and BatchedMesh,
+# bad input, crossings, the worker, out of memory on a memory-limited module,
 # random call sequences, the README's ES-module examples against the .d.ts (tsc --noEmit,
 # strict, with @types/three), and the README's install section — npm pack, install in an empty
 # folder, the examples as ES module and CommonJS — on the modules just built), then the example page in headless Chromium (example/browser-test.mjs). Prints

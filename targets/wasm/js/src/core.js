@@ -264,8 +264,32 @@ function trapped(e, what) {
   return new Error(`kdray: ${what}: ${why}; the module was started again with every scene reloaded`);
 }
 
+// What instanced.js needs of this module's state (not exported by the package).
+let handleOf = null;
+
+/** Internal: the scenes' instance and its helpers, for instanced.js. */
+export const internal = {
+  exports: () => exportsOrThrow(),
+  generation: () => generation,
+  handle: (scene) => handleOf(scene),
+  failure,
+  outOfMemory,
+  guarded,
+  trapped,
+};
+
 /** A triangle mesh's kd-tree, in the WebAssembly module's memory. */
 export class Scene {
+  static {
+    // The live handle of a scene (throws for a disposed one): InstancedScene passes it to the
+    // module, which pins the scene while a top level places it.
+    handleOf = (scene) => {
+      if (!(scene instanceof Scene)) return 0;
+      scene.#kd();
+      return scene.#held.handle;
+    };
+  }
+
   #watertight;
   #f32 = null; // views of the module's memory, made again when it grows
   #u32 = null;

@@ -41,3 +41,4 @@ setDefaultInit(init);
 setSyncInit(initSync);
 
 export { Scene, simdSupported, moduleVariant, compiledModule };
+export { InstancedScene } from './instanced.js';

@@ -13,3 +13,4 @@ export function init(source) {
 }
 
 export { Scene, simdSupported, moduleVariant, compiledModule };
+export { InstancedScene } from './instanced.js';

@@ -180,3 +180,7 @@ export function acceleratedRaycast(raycaster, intersects) {
     }
   }
 }
+
+// A whole hierarchy in one call (Mesh, InstancedMesh and BatchedMesh through one top level):
+//   THREE.Raycaster.prototype.intersectObject = acceleratedIntersectObject;
+export { HierarchyRaycaster, acceleratedIntersectObject, acceleratedIntersectObjects } from './hierarchy.js';

@@ -22,3 +22,10 @@ test('bench/bench.mjs traces the bunny against three-mesh-bvh', () => {
   assert.match(out, /bunny/);
   assert.match(out, /^\|.*\|$/m);
 });
+
+test('bench/instances.mjs casts a small scene of many meshes against three-mesh-bvh', () => {
+  const out = run('instances.mjs', '--rounds', '1', '--rays', '20', '--meshes', '50', '--instances', '200');
+  // The same first hits on every ray (the scene is kdray's and three-mesh-bvh's alike).
+  assert.match(out, /^\| intersectObject\(scene\) \| [\d.]+ \| [\d.]+ \| [\d.]+× \| 20\/20 /m);
+  assert.match(out, /^moving 200 instances, then intersectObject\(scene\): [\d.]+ ms/m);
+});

@@ -99,6 +99,48 @@ export declare class Scene {
   contains(point: Vec3Like): boolean;
 }
 
+/** A hit of InstancedScene.raycast. */
+export interface InstanceHit extends Hit {
+  /** The instance's id (setInstances' `ids`, or its index there). */
+  id: number;
+  /** The unit geometric normal of the triangle as placed (its counter-clockwise side). */
+  normal: [number, number, number];
+}
+
+/** InstancedScene.setInstances' argument. */
+export interface Instances {
+  /** Each instance's mesh: an index into the constructor's array. */
+  meshes: ArrayLike<number>;
+  /** 12 numbers an instance: the object → world 3×4 matrix, row by row (m00 m01 m02 tx, …). */
+  transforms: ArrayLike<number>;
+  /** Each instance's id, a u32 (default: its index). */
+  ids?: ArrayLike<number> | null;
+}
+
+export interface InstancedSceneInfo {
+  instances: number;
+  nodes: number;
+  depth: number;
+  bounds: { min: [number, number, number]; max: [number, number, number] };
+}
+
+/** A scene of many meshes: instances of Scenes placed by affine transforms, with ids. */
+export declare class InstancedScene {
+  constructor(meshes: Scene[], options?: LoadOptions);
+  readonly watertight: boolean;
+  readonly meshes: Scene[];
+  readonly info: InstancedSceneInfo;
+  /** Places the instances (the top level is built again); returns how many were placed. */
+  setInstances(instances: Instances): number;
+  /** The closest hit over every instance with near < t < far, or null. */
+  raycast(origin: Vec3Like, direction: Vec3Like, near?: number, far?: number): InstanceHit | null;
+  occluded(origin: Vec3Like, direction: Vec3Like, near?: number, far?: number): boolean;
+  /** 5 floats a ray: t, face index (u32 bits), u, v, instance id (u32 bits). */
+  raycastMany(rays: Float32Array, hits?: Float32Array): Float32Array;
+  /** Frees the top level (not the meshes). */
+  dispose(): void;
+}
+
 /** Whether this engine runs WebAssembly SIMD. */
 export declare function simdSupported(): boolean;
 /** 'simd128' or 'scalar' once loaded, else null. */

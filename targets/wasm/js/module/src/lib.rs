@@ -17,6 +17,7 @@
 //! [`kdj_raycast_many`], [`kdj_intersect_all`]): JavaScript's views of `memory.buffer` must be
 //! made again after those.
 
+pub mod instances;
 mod memory;
 pub mod mesh;
 mod unit;
@@ -44,6 +45,10 @@ const NO_SCENE: i32 = -3;
 struct Owned {
     scene: Option<Scene<'static>>,
     words: *mut [u32],
+    /// Top levels that place this scene ([`instances`]): while any does, disposing it only
+    /// marks it `disposed`, and the last top level to go frees it.
+    pins: u32,
+    disposed: bool,
 }
 
 impl Owned {
@@ -65,6 +70,8 @@ impl Owned {
             Ok(scene) => Ok(Self {
                 scene: Some(scene),
                 words: ptr,
+                pins: 0,
+                disposed: false,
             }),
             Err(e) => {
                 // SAFETY: the box leaked above; `shared` is not used again.
@@ -111,6 +118,10 @@ struct State {
     /// `intersectAll`'s hits, 5 words each (t, input id, u, v, facing), read at `kdj_all`.
     all: Vec<all::AllHit>,
     all_words: Vec<u32>,
+    /// Top levels of scenes of many meshes by handle − 1 ([`instances`]).
+    tops: Vec<Option<instances::Top>>,
+    /// One closest hit of a top level, read by JavaScript at `kdj_top_result`.
+    top_result: [u32; 8],
 }
 
 thread_local! {
@@ -174,7 +185,36 @@ impl State {
         self.scenes
             .get((handle as usize).wrapping_sub(1))
             .and_then(Option::as_ref)
+            .filter(|o| !o.disposed)
             .ok_or((NO_SCENE, "the scene was disposed".to_string()))
+    }
+
+    /// Pins (`true`) or unpins a live scene for a top level; the last unpin of a disposed scene
+    /// frees it.
+    fn pin(&mut self, handle: u32, on: bool) {
+        let Some(slot) = self.scenes.get_mut((handle as usize).wrapping_sub(1)) else {
+            return;
+        };
+        if let Some(o) = slot.as_mut() {
+            if on {
+                o.pins += 1;
+            } else {
+                o.pins = o.pins.saturating_sub(1);
+                if o.pins == 0 && o.disposed {
+                    *slot = None;
+                }
+            }
+        }
+    }
+
+    /// Disposes a scene: frees it, or marks it disposed while top levels pin it.
+    fn drop_scene(&mut self, handle: u32) {
+        if let Some(slot) = self.scenes.get_mut((handle as usize).wrapping_sub(1)) {
+            match slot.as_mut() {
+                Some(o) if o.pins > 0 => o.disposed = true,
+                _ => *slot = None,
+            }
+        }
     }
 
     /// Stores `words` (opened as [`Owned::new`] says) as a new scene; returns its handle.
@@ -316,14 +356,10 @@ fn load(ptr: u32, n_bytes: u32, built: bool) -> i32 {
     })
 }
 
-/// Forgets a scene.
+/// Forgets a scene (once no top level of [`instances`] places it).
 #[unsafe(no_mangle)]
 pub extern "C" fn kdj_drop(handle: u32) {
-    STATE.with_borrow_mut(|s| {
-        if let Some(slot) = s.scenes.get_mut((handle as usize).wrapping_sub(1)) {
-            *slot = None;
-        }
-    });
+    STATE.with_borrow_mut(|s| s.drop_scene(handle));
 }
 
 /// The address of a scene's words (little-endian u32, the `.kdt` bytes); their count is

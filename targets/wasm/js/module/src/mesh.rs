@@ -18,7 +18,7 @@ const MAX_TRIANGLES: usize = 1 << 26;
 ///
 /// # Errors
 /// A length that is not a multiple of 3 (or 9), a non-finite coordinate, an index past the last
-/// vertex, or more than [`MAX_TRIANGLES`] triangles.
+/// vertex, or more than `MAX_TRIANGLES` (2²⁶) triangles.
 pub fn triangles(positions: &[f32], indices: Option<&[u32]>) -> Result<Vec<[Vec3; 3]>, String> {
     if !positions.len().is_multiple_of(3) {
         return Err(format!(
