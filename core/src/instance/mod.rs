@@ -87,11 +87,14 @@
 
 pub mod affine;
 mod error;
+pub mod packet;
+pub mod stream;
 mod validate;
 pub mod walk;
 
 pub use affine::Affine;
 pub use error::InstanceError;
+pub use packet::InstanceHitPacket;
 pub use walk::InstanceHit;
 
 use crate::format::Scene;

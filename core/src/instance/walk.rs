@@ -74,15 +74,10 @@ pub fn into_instance(inverse: &Affine, ray: &Ray) -> Option<(Ray, f32)> {
     let (origin, dir) = (inverse.point(ray.origin), inverse.vector(ray.dir));
     let m = dir.abs().max_element();
     if !(0.25..4.0).contains(&m) {
-        /// 2¹²⁶: `f` and `1/f` stay normal below it.
-        const LARGEST: f32 = f32::from_bits(253 << 23);
-        if !((f32::MIN_POSITIVE..LARGEST).contains(&m) && origin.is_finite()) {
+        let (f, inv_f) = unit_scale(m)?;
+        if !origin.is_finite() {
             return None;
         }
-        // m = 2^e·(1.x): f = 2^e, and the direction divided by it (times 2^-e).
-        let e = ((m.to_bits() >> 23) & 0xff) as i32 - 127;
-        let f = f32::from_bits(((127 + e) as u32) << 23);
-        let inv_f = f32::from_bits(((127 - e) as u32) << 23);
         let local = Ray {
             origin,
             dir: dir * inv_f,
@@ -99,6 +94,23 @@ pub fn into_instance(inverse: &Affine, ray: &Ray) -> Option<(Ray, f32)> {
         },
         1.0,
     ))
+}
+
+/// For a moved direction whose largest component `m` lies outside `[1/4, 4)`: the power of two
+/// `f` that divides the direction into `[1, 2)`, and `1/f`; `None` if `m` is outside
+/// `[2⁻¹²⁶, 2¹²⁶)` or not a number (see the module doc).
+#[inline]
+pub(super) fn unit_scale(m: f32) -> Option<(f32, f32)> {
+    /// 2¹²⁶: `f` and `1/f` stay normal below it.
+    const LARGEST: f32 = f32::from_bits(253 << 23);
+    if !(f32::MIN_POSITIVE..LARGEST).contains(&m) {
+        return None;
+    }
+    // m = 2^e·(1.x): f = 2^e, and the direction divided by it (times 2^-e).
+    let e = ((m.to_bits() >> 23) & 0xff) as i32 - 127;
+    let f = f32::from_bits(((127 + e) as u32) << 23);
+    let inv_f = f32::from_bits(((127 - e) as u32) << 23);
+    Some((f, inv_f))
 }
 
 /// The world ray prepared for the walk's many box tests: each direction component's reciprocal
