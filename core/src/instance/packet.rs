@@ -23,9 +23,7 @@
 //! enters the same boxes as its single ray (its `tmax` never shrinks), so it finds a hit if and
 //! only if the single ray does.
 
-#[cfg(doc)]
-use super::walk::into_instance;
-use super::walk::unit_scale;
+use super::walk::{into_instance, unit_scale};
 use super::{Affine, InstanceHit, InstancedScene, MAX_DEPTH, NODE_WORDS, affine_at, node, record};
 use crate::format::Scene;
 use crate::simd::lanes::{Lanes, Vec3x, set_lanes};
@@ -222,6 +220,12 @@ fn into_instance_packet<L: Lanes>(
     (local, back)
 }
 
+/// At most this many lanes entering an instance go into it one by one, by the single-ray walk's
+/// own steps ([`into_instance`], [`Scene::intersect_in`]): the packet's move into the instance
+/// and the bottom packet walk's set-up cost more than they save for so few rays (incoherent
+/// rays, such as diffuse bounces, meet most instances one or two lanes at a time).
+const FEW_LANES: u32 = 2;
+
 /// What the packet walk does at an instance, for the lanes that enter its box.
 trait PacketVisit<L: Lanes> {
     /// Each lane's upper end for the box tests: its closest hit so far, or its `tmax`.
@@ -255,11 +259,35 @@ impl<L: Lanes> PacketVisit<L> for ClosestPacket<'_, L> {
     fn instance(&mut self, top: &InstancedScene, i: u32, lanes: u32) -> bool {
         let inst = &top.records[i as usize];
         let inverse = affine_at(inst, record::INVERSE);
+        let bottom: &Scene = &top.bottoms[inst[record::BOTTOM] as usize];
+        if lanes.count_ones() <= FEW_LANES {
+            for lane in set_lanes(lanes) {
+                let ray = self.rays.ray(lane);
+                let world = ray.with_range(ray.tmin, self.tmax.to_array().as_ref()[lane]);
+                let Some((local, back)) = into_instance(&inverse, &world) else {
+                    continue;
+                };
+                let hit = bottom.intersect_in(self.mode, &local);
+                let t = hit.t * back;
+                if hit.is_hit() && t < world.tmax && t > world.tmin {
+                    let at = L::mask_from_bits(1 << lane);
+                    let h = &mut self.hits;
+                    self.tmax = at.select(L::splat(t), self.tmax);
+                    h.t = at.select(L::splat(t), h.t);
+                    h.u = at.select(L::splat(hit.u), h.u);
+                    h.v = at.select(L::splat(hit.v), h.v);
+                    h.prim = at.select_index(L::splat_index(hit.prim), h.prim);
+                    h.instance = at.select_index(L::splat_index(i), h.instance);
+                    let user = L::splat_index(inst[record::USER_ID]);
+                    h.user_id = at.select_index(user, h.user_id);
+                }
+            }
+            return false;
+        }
         let (local, back) = into_instance_packet(&inverse, self.rays, lanes, self.tmax);
         if local.active.none() {
             return false;
         }
-        let bottom: &Scene = &top.bottoms[inst[record::BOTTOM] as usize];
         let found = bottom.intersect_packet_in(self.mode, &local);
         let t = found.t * back;
         let accept = local.active
@@ -305,9 +333,20 @@ impl<L: Lanes> PacketVisit<L> for AnyPacket<'_, L> {
     fn instance(&mut self, top: &InstancedScene, i: u32, lanes: u32) -> bool {
         let inst = &top.records[i as usize];
         let inverse = affine_at(inst, record::INVERSE);
+        let bottom: &Scene = &top.bottoms[inst[record::BOTTOM] as usize];
+        if lanes.count_ones() <= FEW_LANES {
+            for lane in set_lanes(lanes) {
+                let ray = self.rays.ray(lane);
+                if let Some((local, _)) = into_instance(&inverse, &ray)
+                    && bottom.occluded_in(self.mode, &local)
+                {
+                    self.done |= 1 << lane;
+                }
+            }
+            return self.done & self.live == self.live;
+        }
         let (local, _) = into_instance_packet(&inverse, self.rays, lanes, self.rays.tmax);
         if local.active.any() {
-            let bottom: &Scene = &top.bottoms[inst[record::BOTTOM] as usize];
             self.done |= bottom.occluded_packet_in(self.mode, &local).bitmask() & lanes;
         }
         self.done & self.live == self.live
