@@ -146,6 +146,13 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Called after each pair of timed runs: a name for callgrind's `--dump-before`, so that with
+/// `--repeat 1` each dump holds exactly one tracing call (scripts in docs/BENCHMARKS.md).
+#[inline(never)]
+fn mark() {
+    black_box(());
+}
+
 /// The tracing functions below are never inlined, so that callgrind counts each by name
 /// (`callgrind_annotate --inclusive=yes`).
 #[inline(never)]
@@ -216,6 +223,7 @@ fn compare(top: &InstancedScene, merged: &Scene, rays: &[Ray], what: &str, repea
                 _ => stream_mesh(merged, rays, &mut mh, &mut scratch2),
             },
         );
+        mark();
         black_box((&ih, &mh));
         let differ = ih
             .iter()
