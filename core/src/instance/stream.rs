@@ -14,6 +14,11 @@
 //! Every answer is the single-ray walk's: the leftover rays run it, and the packet walk gives
 //! each lane its `t` bits (where two primitives or instances tie at that `t`, either). With
 //! [`Packets::Off`] the answers are the single-ray walk's bit for bit, ties included.
+//!
+//! [`intersect`] and [`occluded`] are `#[inline]`, so that they and every walk they call are
+//! compiled in the caller's crate, not the core's: compiled in the core, they moved LLVM's
+//! inlining of the single-mesh walks' watertight kernels (scripts/icount.sh: up to +9 % on the
+//! single-mesh watertight rows).
 
 use super::{InstanceHit, InstancedScene};
 use crate::ray::Ray;
@@ -80,6 +85,7 @@ impl Answer for AnyHits {
 /// # Errors
 /// [`StreamError::Length`] if `hits` is not as long as `rays`; [`StreamError::Scratch`] if
 /// `scratch` is shorter than [`scratch_words`]`(rays.len())`.
+#[inline]
 pub fn intersect(
     top: &InstancedScene,
     config: &Config,
@@ -94,6 +100,7 @@ pub fn intersect(
 ///
 /// # Errors
 /// As [`intersect`].
+#[inline]
 pub fn occluded(
     top: &InstancedScene,
     config: &Config,
