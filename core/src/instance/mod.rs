@@ -84,14 +84,27 @@
 //! front-to-back order over the world ray, each instance entered with the ray moved into it by
 //! the inverse, direction not normalized, so that `t` stays the world ray's and closest hits
 //! compare across instances; the bottom scene's own walk runs with `tmax` the closest hit so far.
+//!
+//! Packets of 4 or 8 world rays ([`InstancedScene::intersect_packet_in`],
+//! [`InstancedScene::occluded_packet_in`], [`packet`]) walk the tree together, lanes masked by
+//! the box tests (each lane's the single ray's, bit for bit); the lanes that enter an instance
+//! are moved into it together and run the bottom scene's packet walk with each lane's closest
+//! hit so far as its `tmax` (one or two lanes go in by the single-ray steps instead). A whole
+//! array of rays: [`stream::intersect`], [`stream::occluded`] (coherent runs as packets, the
+//! rest one by one, answers in input order, as the single-mesh stream). Each lane's answer is the
+//! single-ray walk's: the same `t` bits, and the same instance and primitive unless two tie at
+//! that `t`.
 
 pub mod affine;
 mod error;
+pub mod packet;
+pub mod stream;
 mod validate;
 pub mod walk;
 
 pub use affine::Affine;
 pub use error::InstanceError;
+pub use packet::InstanceHitPacket;
 pub use walk::InstanceHit;
 
 use crate::format::Scene;

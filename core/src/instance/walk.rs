@@ -30,7 +30,7 @@
 use super::{Affine, InstancedScene, MAX_DEPTH, NODE_WORDS, affine_at, node, record};
 use crate::format::Scene;
 use crate::ray::{Hit, Ray};
-use crate::traverse::{Mode, widen};
+use crate::traverse::{Mode, TINY, WIDEN, widen};
 
 /// The closest hit of a ray through a top level.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,15 +74,10 @@ pub fn into_instance(inverse: &Affine, ray: &Ray) -> Option<(Ray, f32)> {
     let (origin, dir) = (inverse.point(ray.origin), inverse.vector(ray.dir));
     let m = dir.abs().max_element();
     if !(0.25..4.0).contains(&m) {
-        /// 2¹²⁶: `f` and `1/f` stay normal below it.
-        const LARGEST: f32 = f32::from_bits(253 << 23);
-        if !((f32::MIN_POSITIVE..LARGEST).contains(&m) && origin.is_finite()) {
+        let (f, inv_f) = unit_scale(m)?;
+        if !origin.is_finite() {
             return None;
         }
-        // m = 2^e·(1.x): f = 2^e, and the direction divided by it (times 2^-e).
-        let e = ((m.to_bits() >> 23) & 0xff) as i32 - 127;
-        let f = f32::from_bits(((127 + e) as u32) << 23);
-        let inv_f = f32::from_bits(((127 - e) as u32) << 23);
         let local = Ray {
             origin,
             dir: dir * inv_f,
@@ -101,6 +96,23 @@ pub fn into_instance(inverse: &Affine, ray: &Ray) -> Option<(Ray, f32)> {
     ))
 }
 
+/// For a moved direction whose largest component `m` lies outside `[1/4, 4)`: the power of two
+/// `f` that divides the direction into `[1, 2)`, and `1/f`; `None` if `m` is outside
+/// `[2⁻¹²⁶, 2¹²⁶)` or not a number (see the module doc).
+#[inline]
+pub(super) fn unit_scale(m: f32) -> Option<(f32, f32)> {
+    /// 2¹²⁶: `f` and `1/f` stay normal below it.
+    const LARGEST: f32 = f32::from_bits(253 << 23);
+    if !(f32::MIN_POSITIVE..LARGEST).contains(&m) {
+        return None;
+    }
+    // m = 2^e·(1.x): f = 2^e, and the direction divided by it (times 2^-e).
+    let e = ((m.to_bits() >> 23) & 0xff) as i32 - 127;
+    let f = f32::from_bits(((127 + e) as u32) << 23);
+    let inv_f = f32::from_bits(((127 - e) as u32) << 23);
+    Some((f, inv_f))
+}
+
 /// The world ray prepared for the walk's many box tests: each direction component's reciprocal
 /// computed once, where [`crate::traverse::clip_to_box_in`] divides per box; otherwise the same
 /// arithmetic (so the same entry distances, bit for bit).
@@ -109,17 +121,26 @@ struct Slabs {
     dir: [f32; 3],
     inv: [f32; 3],
     tmin: f32,
+    /// Every component's reciprocal finite and not zero (no `±0`, no subnormal): then
+    /// [`Slabs::enter`] takes [`Slabs::enter_plain`], with no branch per axis.
+    plain: bool,
+    /// Per axis, the word offset (0 or 3) of the plane a box is entered by: the min plane where
+    /// the direction is positive, the max plane where it is negative.
+    near: [usize; 3],
 }
 
 impl Slabs {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
         let dir = ray.dir.to_array();
+        let inv = dir.map(|d| 1.0 / d);
         Self {
             origin: ray.origin.to_array(),
             dir,
-            inv: dir.map(|d| 1.0 / d),
+            inv,
             tmin: ray.tmin,
+            plain: inv.iter().all(|i| i.is_finite() && *i != 0.0),
+            near: inv.map(|i| if i < 0.0 { 3 } else { 0 }),
         }
     }
 
@@ -127,6 +148,9 @@ impl Slabs {
     /// both slab distances [`widen`]ed outward, or `None` for a miss.
     #[inline(always)]
     fn enter(&self, b: &[u32], tmax: f32) -> Option<f32> {
+        if self.plain {
+            return self.enter_plain(b, tmax);
+        }
         let (mut t0, mut t1) = (self.tmin, tmax);
         for a in 0..3 {
             let (lo, hi) = (f32::from_bits(b[a]), f32::from_bits(b[3 + a]));
@@ -153,6 +177,33 @@ impl Slabs {
             }
         }
         Some(t0)
+    }
+
+    /// [`Slabs::enter`] for a ray whose reciprocals are all finite and not zero: the same
+    /// distances, decided by the same comparisons, in fewer instructions (the top level's box
+    /// tests were 75 % of a single ray's instructions through 100 bunnies). Each axis's nearer
+    /// plane is known from the direction's sign (rounding is monotone, so `(lo − o)·inv ≤
+    /// (hi − o)·inv` for `inv > 0` and a box with `lo ≤ hi`, as validation requires); no value
+    /// here is NaN (finite box and origin, finite reciprocals), so `min` and `max` are plain
+    /// comparisons, which may differ from `f32::min`/`max` only in the sign of a zero — and a
+    /// zero's sign changes no comparison, nor `widen`'s result (`±0 ∓ TINY`).
+    #[inline(always)]
+    fn enter_plain(&self, b: &[u32], tmax: f32) -> Option<f32> {
+        let min = |a: f32, b: f32| if a < b { a } else { b };
+        let max = |a: f32, b: f32| if a > b { a } else { b };
+        let (mut t0, mut t1) = (self.tmin, tmax);
+        for a in 0..3 {
+            let n = self.near[a];
+            let (o, inv) = (self.origin[a], self.inv[a]);
+            let near = (f32::from_bits(b[n + a]) - o) * inv;
+            let far = (f32::from_bits(b[3 - n + a]) - o) * inv;
+            // `widen(near).0` and `widen(far).1`.
+            let (n0, n1) = (near * (1.0 - WIDEN), near * (1.0 + WIDEN));
+            let (f0, f1) = (far * (1.0 - WIDEN), far * (1.0 + WIDEN));
+            t0 = max(t0, min(n0, n1) - TINY);
+            t1 = min(t1, max(f0, f1) + TINY);
+        }
+        (t0 <= t1).then_some(t0)
     }
 }
 

@@ -401,7 +401,7 @@ pub(super) fn sign_groups<L: Lanes>(rays: &RayPacket<L>) -> impl Iterator<Item =
 
 /// [`crate::traverse::widen`] lane by lane: `(lo, hi)` bracketing each lane's exact distance.
 #[inline(always)]
-pub(super) fn widen_lanes<L: Lanes>(t: L) -> (L, L) {
+pub(crate) fn widen_lanes<L: Lanes>(t: L) -> (L, L) {
     let tiny = L::splat(TINY);
     let (a, b) = (t * L::splat(1.0 - WIDEN), t * L::splat(1.0 + WIDEN));
     (a.min(b) - tiny, a.max(b) + tiny)
