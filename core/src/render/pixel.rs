@@ -3,7 +3,9 @@
 //! path by itself through the scalar walk ([`Bounces::SingleRays`](super::Bounces::SingleRays)).
 
 use super::path::{Context, Path, add_path, camera_path, vertex};
+use super::world::World;
 use crate::camera::Camera;
+use crate::format::Scene;
 use crate::ray::Ray;
 use crate::simd::lanes::set_lanes;
 use crate::simd::{Lanes, RayPacket, f32x8};
@@ -13,7 +15,7 @@ use glam::Vec3;
 
 /// rays as 8-wide packets when `PACKETS`.
 pub(super) fn render_pixel<K: Contents, C: Camera, const PACKETS: bool>(
-    ctx: &Context,
+    ctx: &Context<Scene>,
     camera: &C,
     x: u32,
     y: u32,
@@ -38,24 +40,27 @@ pub(super) fn render_pixel<K: Contents, C: Camera, const PACKETS: bool>(
         } else if PACKETS {
             trace_paths_packed::<K>(ctx, paths);
         } else {
-            paths.iter_mut().for_each(|p| trace_path::<K>(ctx, p));
+            paths
+                .iter_mut()
+                .for_each(|p| trace_path::<K, Scene>(ctx, p));
         }
         paths.iter().for_each(|path| add_path(sums, path));
         first += n;
     }
 }
 
-fn trace_path<K: Contents>(ctx: &Context, path: &mut Path) {
-    let mut hit = ctx.scene.intersect_with::<K>(&path.ray);
+/// One path by itself, every ray through `W`'s single-ray walk.
+pub(super) fn trace_path<K: Contents, W: World>(ctx: &Context<W>, path: &mut Path) {
+    let mut hit = ctx.scene.intersect_one::<K>(&path.ray);
     for depth in 1..=ctx.settings.max_depth {
         let (goes_on, shadow) = vertex(ctx, path, &hit);
         if let Some(shadow) = shadow {
-            path.resolve(&shadow, ctx.scene.occluded_with::<K>(&shadow.ray));
+            path.resolve(&shadow, ctx.scene.occluded_one::<K>(&shadow.ray));
         }
         if !goes_on || depth == ctx.settings.max_depth {
             return;
         }
-        hit = ctx.scene.intersect_with::<K>(&path.ray);
+        hit = ctx.scene.intersect_one::<K>(&path.ray);
     }
 }
 
@@ -63,7 +68,7 @@ fn trace_path<K: Contents>(ctx: &Context, path: &mut Path) {
 /// so are its shadow rays, with the lanes of finished paths (or of paths without a shadow ray)
 /// inactive. Every lane does exactly what [`trace_path`] does for it, in the same order, and the
 /// packet traversal finds what the scalar walk finds, so the image is the same.
-fn trace_paths_packed<K: Contents>(ctx: &Context, paths: &mut [Path]) {
+fn trace_paths_packed<K: Contents>(ctx: &Context<Scene>, paths: &mut [Path]) {
     let scene = ctx.scene;
     let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
     let mut live = 0u32;
