@@ -10,9 +10,8 @@ use crate::camera::Camera;
 use crate::format::Scene;
 use crate::math;
 use crate::optics;
-use crate::ray::Ray;
+use crate::ray::{Hit, Ray};
 use crate::sampling::{Onb, Pcg32, cosine_hemisphere};
-use crate::triangle::shading_normal;
 use core::f32::consts::PI;
 use glam::Vec3;
 
@@ -171,7 +170,18 @@ pub(super) fn add_path(sums: &mut SampleSums, path: &Path) {
 /// The path vertex where `path.ray` lands (`hit`): adds what it emits and, after a diffuse
 /// bounce, returns the shadow ray of its direct light; then either turns `path.ray` into the next
 /// bounce and returns `true`, or ends the path (`false`).
-pub(super) fn vertex<W: World>(
+///
+/// Never inlined, so that it stays compiled in the core as it was before [`World`]: the render
+/// loops, generic over the camera and compiled in the caller's crate, call it rather than carry a
+/// copy of [`vertex_in`] beside the packet kernels compiled there (whose instruction counts
+/// `scripts/icount.sh` holds to within 3 %).
+#[inline(never)]
+pub(super) fn vertex(ctx: &Context<Scene>, path: &mut Path, hit: &Hit) -> (bool, Option<Shadow>) {
+    vertex_in(ctx, path, hit)
+}
+
+/// [`vertex`] for any [`World`]: a single-mesh scene's or an instanced scene's.
+pub(super) fn vertex_in<W: World>(
     ctx: &Context<W>,
     path: &mut Path,
     hit: &W::Hit,
@@ -277,43 +287,7 @@ fn direct_light<W: World>(
     Some((shadow, light))
 }
 
-/// A point on primitive `prim` uniform by area from `(u1, u2)` in `[0, 1)²`: the point, the unit
-/// normal there and the primitive's area; `None` for a degenerate primitive.
-pub(super) fn point_on(scene: &Scene, prim: u32, u1: f32, u2: f32) -> Option<(Vec3, Vec3, f32)> {
-    let n_tris = scene.tri_count();
-    if prim >= n_tris {
-        let s = scene.sphere(prim - n_tris);
-        let z = 1.0 - 2.0 * u1;
-        let r = math::sqrt((1.0 - z * z).max(0.0));
-        let phi = 2.0 * PI * u2;
-        let n = Vec3::new(r * math::cos(phi), r * math::sin(phi), z);
-        return Some((s.center + s.radius * n, n, 4.0 * PI * s.radius * s.radius));
-    }
-    let tri = scene.triangle(prim);
-    let cross = tri.geometric_normal();
-    let area = 0.5 * cross.length();
-    let n = cross.try_normalize()?;
-    // Uniform on a triangle (Osada et al. 2002): √u1 picks the distance from v0.
-    let s = math::sqrt(u1);
-    Some((
-        tri.v0 + tri.e1 * (s * (1.0 - u2)) + tri.e2 * (s * u2),
-        n,
-        area,
-    ))
-}
-
 /// Fraction of a shadow ray's length left out at the light's end, so that the light's own surface
 /// (whose sampled point has rounding error) does not count as a blocker: pbrt-v4's
 /// `ShadowEpsilon` in `SpawnRayTo`, here 2⁻¹². The origin end needs no such slack (crate::spawn).
 const SHADOW_SLACK: f32 = 1.0 / (1 << 12) as f32;
-
-/// The unit geometric and shading normals at hit `hit` (point `p`), or `None` where they
-/// vanish (a degenerate triangle).
-pub(super) fn normals(scene: &Scene, hit: &crate::ray::Hit, p: Vec3) -> Option<(Vec3, Vec3)> {
-    let geometric = scene.geometric_normal(hit.prim, p).try_normalize()?;
-    let shading = match scene.vertex_normals(hit.prim) {
-        Some(vn) => shading_normal(vn, hit.u, hit.v, geometric),
-        None => geometric,
-    };
-    Some((geometric, shading))
-}

@@ -3,7 +3,6 @@
 //! path by itself through the scalar walk ([`Bounces::SingleRays`](super::Bounces::SingleRays)).
 
 use super::path::{Context, Path, add_path, camera_path, vertex};
-use super::world::World;
 use crate::camera::Camera;
 use crate::format::Scene;
 use crate::ray::Ray;
@@ -40,27 +39,24 @@ pub(super) fn render_pixel<K: Contents, C: Camera, const PACKETS: bool>(
         } else if PACKETS {
             trace_paths_packed::<K>(ctx, paths);
         } else {
-            paths
-                .iter_mut()
-                .for_each(|p| trace_path::<K, Scene>(ctx, p));
+            paths.iter_mut().for_each(|p| trace_path::<K>(ctx, p));
         }
         paths.iter().for_each(|path| add_path(sums, path));
         first += n;
     }
 }
 
-/// One path by itself, every ray through `W`'s single-ray walk.
-pub(super) fn trace_path<K: Contents, W: World>(ctx: &Context<W>, path: &mut Path) {
-    let mut hit = ctx.scene.intersect_one::<K>(&path.ray);
+fn trace_path<K: Contents>(ctx: &Context<Scene>, path: &mut Path) {
+    let mut hit = ctx.scene.intersect_with::<K>(&path.ray);
     for depth in 1..=ctx.settings.max_depth {
         let (goes_on, shadow) = vertex(ctx, path, &hit);
         if let Some(shadow) = shadow {
-            path.resolve(&shadow, ctx.scene.occluded_one::<K>(&shadow.ray));
+            path.resolve(&shadow, ctx.scene.occluded_with::<K>(&shadow.ray));
         }
         if !goes_on || depth == ctx.settings.max_depth {
             return;
         }
-        hit = ctx.scene.intersect_one::<K>(&path.ray);
+        hit = ctx.scene.intersect_with::<K>(&path.ray);
     }
 }
 

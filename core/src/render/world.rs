@@ -8,24 +8,21 @@
 //! monomorphized vertex is the code it was before the trait.
 
 use crate::format::Scene;
+use crate::math;
 use crate::ray::{Hit, Ray};
 use crate::spawn::SurfacePoint;
-use crate::traverse::Contents;
+use crate::triangle::shading_normal;
+use core::f32::consts::PI;
 use glam::Vec3;
 
-/// A scene the path vertex can shade (see the module doc), and its single-ray walks (the packet
-/// and stream walks, `render/pixel.rs` and `render/wavefront.rs`, are a [`Scene`]'s own).
+/// A scene the path vertex can shade (see the module doc). Tracing is not part of it: the ways
+/// of tracing (`render/pixel.rs`, `render/wavefront.rs`, `render/instanced.rs`) call their
+/// scene's own walks.
 pub(crate) trait World {
     /// What a walk returns for one ray.
     type Hit: Copy;
     /// One emitting primitive, as the caller lists them for next-event estimation.
     type Light: Copy;
-
-    /// The closest hit of `ray`, with the kernels `K` names (its mode included).
-    fn intersect_one<K: Contents>(&self, ray: &Ray) -> Self::Hit;
-
-    /// Whether anything blocks `ray`, with the kernels `K` names.
-    fn occluded_one<K: Contents>(&self, ray: &Ray) -> bool;
 
     /// Whether `hit` is a hit (not a miss).
     fn is_hit(hit: &Self::Hit) -> bool;
@@ -54,16 +51,6 @@ impl World for Scene<'_> {
     type Light = u32;
 
     #[inline(always)]
-    fn intersect_one<K: Contents>(&self, ray: &Ray) -> Hit {
-        self.intersect_with::<K>(ray)
-    }
-
-    #[inline(always)]
-    fn occluded_one<K: Contents>(&self, ray: &Ray) -> bool {
-        self.occluded_with::<K>(ray)
-    }
-
-    #[inline(always)]
     fn is_hit(hit: &Hit) -> bool {
         hit.is_hit()
     }
@@ -80,7 +67,7 @@ impl World for Scene<'_> {
 
     #[inline(always)]
     fn normals(&self, hit: &Hit, _ray: &Ray, p: Vec3) -> Option<(Vec3, Vec3)> {
-        super::path::normals(self, hit, p)
+        normals(self, hit, p)
     }
 
     #[inline(always)]
@@ -90,6 +77,42 @@ impl World for Scene<'_> {
 
     #[inline(always)]
     fn point_on(&self, light: u32, u1: f32, u2: f32) -> Option<(Vec3, Vec3, f32)> {
-        super::path::point_on(self, light, u1, u2)
+        point_on(self, light, u1, u2)
     }
+}
+
+/// A point on primitive `prim` uniform by area from `(u1, u2)` in `[0, 1)²`: the point, the unit
+/// normal there and the primitive's area; `None` for a degenerate primitive.
+pub(super) fn point_on(scene: &Scene, prim: u32, u1: f32, u2: f32) -> Option<(Vec3, Vec3, f32)> {
+    let n_tris = scene.tri_count();
+    if prim >= n_tris {
+        let s = scene.sphere(prim - n_tris);
+        let z = 1.0 - 2.0 * u1;
+        let r = math::sqrt((1.0 - z * z).max(0.0));
+        let phi = 2.0 * PI * u2;
+        let n = Vec3::new(r * math::cos(phi), r * math::sin(phi), z);
+        return Some((s.center + s.radius * n, n, 4.0 * PI * s.radius * s.radius));
+    }
+    let tri = scene.triangle(prim);
+    let cross = tri.geometric_normal();
+    let area = 0.5 * cross.length();
+    let n = cross.try_normalize()?;
+    // Uniform on a triangle (Osada et al. 2002): √u1 picks the distance from v0.
+    let s = math::sqrt(u1);
+    Some((
+        tri.v0 + tri.e1 * (s * (1.0 - u2)) + tri.e2 * (s * u2),
+        n,
+        area,
+    ))
+}
+
+/// The unit geometric and shading normals at hit `hit` (point `p`), or `None` where they
+/// vanish (a degenerate triangle).
+pub(super) fn normals(scene: &Scene, hit: &Hit, p: Vec3) -> Option<(Vec3, Vec3)> {
+    let geometric = scene.geometric_normal(hit.prim, p).try_normalize()?;
+    let shading = match scene.vertex_normals(hit.prim) {
+        Some(vn) => shading_normal(vn, hit.u, hit.v, geometric),
+        None => geometric,
+    };
+    Some((geometric, shading))
 }

@@ -67,11 +67,7 @@ pub(super) fn trace(args: &TraceArgs, file: &SceneFile, rays: &[Ray]) -> Result<
             found
                 .par_chunks_mut(CHUNK)
                 .zip(rays.par_chunks(CHUNK))
-                .for_each(|(h, r)| {
-                    for (hit, ray) in h.iter_mut().zip(r) {
-                        *hit = scene.intersect_in(mode, ray);
-                    }
-                });
+                .for_each(|(h, r)| kdray::instances::trace_rays(&scene, mode, r, h));
         });
         best = best.min(start.elapsed().as_secs_f64());
     }
