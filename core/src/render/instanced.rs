@@ -39,6 +39,7 @@ pub struct InstanceLight {
 
 /// The emitting primitives of every instance of `scene`, instance by instance, written to `out`;
 /// returns how many there are (those past `out.len()` are counted, not written).
+#[inline]
 pub fn instanced_emitters(
     scene: &InstancedScene,
     materials: &[Material],
@@ -65,18 +66,20 @@ pub fn instanced_emitters(
     n
 }
 
-/// The closest hit of `ray` ([`InstancedScene::intersect_in`]), in one place and never inlined,
-/// so that the render's loops do not carry copies of the two-level walk (which inlines the bottom
-/// scenes' walks) beside the single-mesh kernels; with the walk inlined in them,
-/// `scripts/icount.sh`'s watertight rows rose by up to 9 % (LLVM's choices for code compiled
-/// beside it; see the report in the commit that made this).
-#[inline(never)]
+/// The closest hit of `ray` ([`InstancedScene::intersect_in`]).
+///
+/// This module's functions are `#[inline]` or generic, so that the core compiles none of them
+/// unless a program renders instances. Compiled in the core, they moved LLVM's choices for the
+/// single-mesh kernels compiled there: `scripts/icount.sh`'s watertight rows rose by up to 9 %
+/// (one ray at a time on index lists) in a binary that never called them; as they are, the
+/// watertight packet rows still rise by 3–5 % (not understood yet).
+#[inline]
 fn closest(scene: &InstancedScene, mode: Mode, ray: &Ray) -> InstanceHit {
     scene.intersect_in(mode, ray)
 }
 
-/// Whether anything blocks `ray` ([`InstancedScene::occluded_in`]); never inlined, as [`closest`].
-#[inline(never)]
+/// Whether anything blocks `ray` ([`InstancedScene::occluded_in`]).
+#[inline]
 fn any(scene: &InstancedScene, mode: Mode, ray: &Ray) -> bool {
     scene.occluded_in(mode, ray)
 }
@@ -118,6 +121,7 @@ fn abs_translation(a: &Affine) -> Vec3 {
 ///   (the local plane's distance is `|A⁻ᵀ n_l|·d ≥ d / σ_max`); `σ_max ≤ ‖A‖_F`, so the world
 ///   margin is `‖A‖_F·d_l`, rounded up by `γ(4)`.
 /// - `error`: the forward transform's own rounding, `γ(3)·(|A|·|p_l| + |b|)` (pbrt-v4's bound).
+#[inline]
 fn to_world(transform: &Affine, inverse: &Affine, local: SurfacePoint) -> SurfacePoint {
     let p = transform.point(local.p);
     let error = gamma(3) * (abs_linear(transform, local.p.abs()) + abs_translation(transform));
@@ -146,10 +150,12 @@ impl World for InstancedScene<'_, '_> {
         hit.is_hit()
     }
 
+    #[inline]
     fn material_id(&self, hit: &InstanceHit) -> u32 {
         self.bottom_of(hit.instance).material(hit.prim)
     }
 
+    #[inline]
     fn surface_point(&self, hit: &InstanceHit, ray: &Ray) -> SurfacePoint {
         let inst = self.instance(hit.instance);
         let (local_hit, local_ray) = local(&inst.inverse, hit, ray);
@@ -159,6 +165,7 @@ impl World for InstancedScene<'_, '_> {
         to_world(&inst.transform, &inst.inverse, local_point)
     }
 
+    #[inline]
     fn normals(&self, hit: &InstanceHit, ray: &Ray, _p: Vec3) -> Option<(Vec3, Vec3)> {
         let inst = self.instance(hit.instance);
         let bottom = self.bottom_of(hit.instance);
@@ -175,10 +182,12 @@ impl World for InstancedScene<'_, '_> {
         Some((g, s.try_normalize().unwrap_or(g)))
     }
 
+    #[inline]
     fn light_material_id(&self, light: InstanceLight) -> u32 {
         self.bottom_of(light.instance).material(light.prim)
     }
 
+    #[inline]
     fn point_on(&self, light: InstanceLight, u1: f32, u2: f32) -> Option<(Vec3, Vec3, f32)> {
         let inst = self.instance(light.instance);
         let bottom = self.bottom_of(light.instance);
@@ -300,7 +309,7 @@ impl<C: Camera> InstancedFrame<'_, '_, '_, C> {
 
 /// One path through the two-level walk in the settings' mode, every ray a single ray (as
 /// `render/pixel.rs` traces a single-mesh path with `Bounces::SingleRays`).
-#[inline(never)]
+#[inline]
 fn trace_one(ctx: &Context<InstancedScene>, path: &mut Path) {
     let mode = ctx.settings.mode;
     let mut hit = closest(ctx.scene, mode, &path.ray);
