@@ -39,6 +39,7 @@ pictures=(
   "parallel-pinhole.png|host/scenes/parallel-pinhole.toml"
   "thick_lens.png|host/scenes/thick_lens.toml"
   "lens_array.png|host/scenes/lens_array.toml"
+  "instances.png|host/scenes/instances.toml"
 )
 
 out_dir=docs

@@ -35,10 +35,22 @@
 //! ```
 
 use glam::Vec3;
+use kdray_core::Ray;
 use kdray_core::format::{Scene, seal};
 use kdray_core::instance::{
-    Affine, HEADER_WORDS, MAGIC, NODE_WORDS, RECORD_WORDS, VERSION, header, node, record,
+    Affine, HEADER_WORDS, InstanceHit, InstancedScene, MAGIC, NODE_WORDS, RECORD_WORDS, VERSION,
+    header, node, record,
 };
+use kdray_core::traverse::Mode;
+
+/// The closest hit of each of `rays` through `scene` in `mode`, into `hits` (as many): the
+/// two-level single-ray walk ([`InstancedScene::intersect_in`]), what `kdray trace` runs on a
+/// scene file with instances.
+pub fn trace_rays(scene: &InstancedScene, mode: Mode, rays: &[Ray], hits: &mut [InstanceHit]) {
+    for (hit, ray) in hits.iter_mut().zip(rays) {
+        *hit = scene.intersect_in(mode, ray);
+    }
+}
 
 /// The most instances a leaf of the tree holds.
 pub const LEAF_MAX: usize = 4;

@@ -19,9 +19,57 @@ use core::cell::RefCell;
 use core::ops::Range;
 use core::sync::atomic::{AtomicU64, Ordering};
 use kdray_core::camera::Camera;
-use kdray_core::render::{Frame, PixelSamples, RenderError, SampleSums, Wavefront};
+use kdray_core::render::{
+    Frame, InstancedFrame, PixelSamples, RenderError, SampleSums, Settings, Wavefront,
+};
 use rayon::prelude::*;
 use std::time::Instant;
+
+/// What passes render: a single-mesh scene's [`Frame`] or an instanced scene's
+/// [`InstancedFrame`] (every ray a single ray through the two-level walk).
+pub trait Pixels: Sync {
+    /// The image's settings.
+    fn settings(&self) -> &Settings;
+
+    /// Adds samples `jobs[k].samples` of pixel `(jobs[k].x, jobs[k].y)` to `sums[k]`, each
+    /// pixel's in sample order ([`Frame::add_pixels`]), on the calling worker's wavefront.
+    ///
+    /// # Errors
+    /// As [`Frame::add_pixels`].
+    fn add_pixels(&self, jobs: &[PixelSamples], sums: &mut [SampleSums])
+    -> Result<(), RenderError>;
+}
+
+impl<C: Camera + Sync> Pixels for Frame<'_, '_, C> {
+    fn settings(&self) -> &Settings {
+        self.settings
+    }
+
+    fn add_pixels(
+        &self,
+        jobs: &[PixelSamples],
+        sums: &mut [SampleSums],
+    ) -> Result<(), RenderError> {
+        WAVE.with_borrow_mut(|wave| {
+            let wave = wave.get_or_insert_with(|| Box::new(Wavefront::new()));
+            Frame::add_pixels(self, jobs, sums, wave)
+        })
+    }
+}
+
+impl<C: Camera + Sync> Pixels for InstancedFrame<'_, '_, '_, C> {
+    fn settings(&self) -> &Settings {
+        self.settings
+    }
+
+    fn add_pixels(
+        &self,
+        jobs: &[PixelSamples],
+        sums: &mut [SampleSums],
+    ) -> Result<(), RenderError> {
+        InstancedFrame::add_pixels(self, jobs, sums)
+    }
+}
 
 /// Samples per pixel in one pass: one 8-wide packet per pixel.
 pub const PASS: u32 = 8;
@@ -148,12 +196,12 @@ pub struct Stats {
 ///
 /// # Errors
 /// What [`Frame::add_samples`] refuses (an empty image, rows outside it).
-pub fn render<C: Camera + Sync>(
-    frame: &Frame<C>,
+pub fn render<F: Pixels>(
+    frame: &F,
     plan: &Plan,
     progress: &AtomicU64,
 ) -> Result<(Film, Stats), RenderError> {
-    let s = frame.settings;
+    let s = frame.settings();
     if plan.rows.is_empty() || plan.rows.end > s.height {
         return Err(RenderError::BufferSize);
     }
@@ -215,8 +263,8 @@ pub fn render<C: Camera + Sync>(
 }
 
 /// One pass: pixel `k` of the film gets its next `counts[k]` samples; returns the rays traced.
-fn pass<C: Camera + Sync>(
-    frame: &Frame<C>,
+fn pass<F: Pixels>(
+    frame: &F,
     film: &mut Film,
     counts: &[u32],
     progress: &AtomicU64,
@@ -238,10 +286,7 @@ fn pass<C: Camera + Sync>(
                     samples: done[x]..done[x] + n[x],
                 })
                 .collect();
-            WAVE.with_borrow_mut(|wave| {
-                let wave = wave.get_or_insert_with(|| Box::new(Wavefront::new()));
-                frame.add_pixels(&jobs, sums, wave)
-            })?;
+            frame.add_pixels(&jobs, sums)?;
             for (done, n) in done.iter_mut().zip(n) {
                 *done += n;
             }

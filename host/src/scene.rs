@@ -9,11 +9,15 @@
 mod assemble;
 mod camera;
 mod desc;
+mod instances;
 mod meshes;
 mod placement;
 
 pub use camera::{CameraDesc, DEFAULT_LENS, Focus, SceneCamera};
-pub use desc::{MaterialDesc, MaterialKind, MeshDesc, RenderDesc, Scale, SphereDesc, TriangleDesc};
+pub use desc::{
+    InstanceDesc, MaterialDesc, MaterialKind, MeshDesc, RenderDesc, Scale, SphereDesc, TriangleDesc,
+};
+pub use instances::{InstancedGeometry, MAX_COPIES};
 
 use crate::error::{Error, Result};
 use serde::Deserialize;
@@ -37,6 +41,8 @@ struct Document {
     triangle: Vec<TriangleDesc>,
     #[serde(default)]
     sphere: Vec<SphereDesc>,
+    #[serde(default)]
+    instance: Vec<InstanceDesc>,
 }
 
 /// Where each entry starts, read in a second pass over the same text, to give the line of
@@ -53,6 +59,8 @@ struct Spans {
     triangle: Vec<Spanned<IgnoredAny>>,
     #[serde(default)]
     sphere: Vec<Spanned<IgnoredAny>>,
+    #[serde(default)]
+    instance: Vec<Spanned<IgnoredAny>>,
 }
 
 /// Lines (1-based) of the entries of a parsed scene, when it came from text.
@@ -64,6 +72,7 @@ struct Lines {
     mesh: Vec<usize>,
     triangle: Vec<usize>,
     sphere: Vec<usize>,
+    instance: Vec<usize>,
 }
 
 /// A parsed and validated scene file.
@@ -78,6 +87,8 @@ pub struct SceneFile {
     pub meshes: Vec<MeshDesc>,
     pub triangles: Vec<TriangleDesc>,
     pub spheres: Vec<SphereDesc>,
+    /// Copies of named meshes (`docs/SCENE.md`, "Instances"); empty in a scene of one mesh.
+    pub instances: Vec<InstanceDesc>,
     lines: Lines,
     /// Meshes held in the binary, by the `path` a `[[mesh]]` gives: used instead of files (the
     /// built-in default scene's, so that it renders wherever the binary is).
@@ -172,6 +183,7 @@ impl SceneFile {
             mesh: spans.mesh.iter().map(line).collect(),
             triangle: spans.triangle.iter().map(line).collect(),
             sphere: spans.sphere.iter().map(line).collect(),
+            instance: spans.instance.iter().map(line).collect(),
         };
         let mut materials = doc.material;
         if materials.is_empty() {
@@ -185,6 +197,7 @@ impl SceneFile {
             meshes: doc.mesh,
             triangles: doc.triangle,
             spheres: doc.sphere,
+            instances: doc.instance,
             lines,
             embedded: &[],
         };
@@ -255,7 +268,8 @@ impl SceneFile {
             )));
         }
         self.check_materials()?;
-        self.check_entries()
+        self.check_entries()?;
+        self.check_instances()
     }
 
     fn check_materials(&self) -> Result<()> {

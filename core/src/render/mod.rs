@@ -40,10 +40,15 @@
 //! Each sample depends only on the pixel, the sample index and [`Settings::seed`], so an image
 //! does not depend on how rows are split between threads.
 
+#[cfg(feature = "instances")]
+mod instanced;
 mod path;
 mod pixel;
 mod wavefront;
+mod world;
 
+#[cfg(feature = "instances")]
+pub use instanced::{InstanceLight, InstancedFrame, instanced_emitters};
 pub use path::emitters;
 pub use wavefront::{PixelSamples, Wavefront};
 
@@ -354,7 +359,7 @@ impl<'a, 's, C: Camera> Frame<'a, 's, C> {
     }
 
     /// The context every path of this frame reads.
-    fn context(&self) -> Context<'a, 's> {
+    fn context(&self) -> Context<'a, Scene<'s>> {
         Context {
             scene: self.scene,
             materials: self.materials,

@@ -4,6 +4,7 @@
 //! pixels' paths as one ray stream) all advance paths through [`vertex`], so a path makes the same
 //! choices from the same random numbers whichever traces it.
 
+use super::world::World;
 use super::{Material, MaterialKind, SampleSums, Settings};
 use crate::camera::Camera;
 use crate::format::Scene;
@@ -11,21 +12,24 @@ use crate::math;
 use crate::optics;
 use crate::ray::{Hit, Ray};
 use crate::sampling::{Onb, Pcg32, cosine_hemisphere};
-use crate::triangle::shading_normal;
 use core::f32::consts::PI;
 use glam::Vec3;
 
-/// What every path of a render reads.
-pub(super) struct Context<'a, 's> {
-    pub scene: &'a Scene<'s>,
+/// What every path of a render reads: a single-mesh [`Scene`] or, with the `instances`
+/// feature, an [`InstancedScene`](crate::instance::InstancedScene) ([`World`]).
+pub(super) struct Context<'a, W: World> {
+    pub scene: &'a W,
     pub materials: &'a [Material],
-    pub lights: &'a [u32],
+    pub lights: &'a [W::Light],
     pub settings: &'a Settings,
 }
 
-impl Context<'_, '_> {
-    fn material(&self, prim: u32) -> Material {
-        material_of(self.scene, self.materials, prim)
+impl<W: World> Context<'_, W> {
+    fn material(&self, id: u32) -> Material {
+        self.materials
+            .get(id as usize)
+            .copied()
+            .unwrap_or(Material::FALLBACK)
     }
 }
 
@@ -166,18 +170,33 @@ pub(super) fn add_path(sums: &mut SampleSums, path: &Path) {
 /// The path vertex where `path.ray` lands (`hit`): adds what it emits and, after a diffuse
 /// bounce, returns the shadow ray of its direct light; then either turns `path.ray` into the next
 /// bounce and returns `true`, or ends the path (`false`).
-pub(super) fn vertex(ctx: &Context, path: &mut Path, hit: &Hit) -> (bool, Option<Shadow>) {
+///
+/// Never inlined, so that it stays compiled in the core as it was before [`World`]: the render
+/// loops, generic over the camera and compiled in the caller's crate, call it rather than carry a
+/// copy of [`vertex_in`] beside the packet kernels compiled there (whose instruction counts
+/// `scripts/icount.sh` holds to within 3 %).
+#[inline(never)]
+pub(super) fn vertex(ctx: &Context<Scene>, path: &mut Path, hit: &Hit) -> (bool, Option<Shadow>) {
+    vertex_in(ctx, path, hit)
+}
+
+/// [`vertex`] for any [`World`]: a single-mesh scene's or an instanced scene's.
+pub(super) fn vertex_in<W: World>(
+    ctx: &Context<W>,
+    path: &mut Path,
+    hit: &W::Hit,
+) -> (bool, Option<Shadow>) {
     let scene = ctx.scene;
     let ray = path.ray;
     path.rays += 1;
-    if !hit.is_hit() {
+    if !W::is_hit(hit) {
         path.radiance += path.throughput * ctx.settings.background;
         return (false, None);
     }
-    let m = ctx.material(hit.prim);
+    let m = ctx.material(scene.material_id(hit));
     // The hit point rebuilt from the primitive, with its error bound (crate::spawn).
     let point = scene.surface_point(hit, &ray);
-    let normals = normals(scene, hit, point.p);
+    let normals = scene.normals(hit, &ray, point.p);
     // Whether the ray meets the side the geometric normal faces.
     let front = normals.is_some_and(|(geometric, _)| geometric.dot(ray.dir) < 0.0);
     if path.count_emission && (front || m.two_sided) {
@@ -231,7 +250,12 @@ pub(super) fn vertex(ctx: &Context, path: &mut Path, hit: &Hit) -> (bool, Option
 /// normal `n`): one point on one light, as a shadow ray towards it and the light it brings if
 /// nothing blocks it — the incident radiance times `cosθ / π`, which multiplied by the albedo is
 /// the reflected direct light. `None` where that light is zero whatever the shadow ray finds.
-fn direct_light(ctx: &Context, origin: Vec3, n: Vec3, rng: &mut Pcg32) -> Option<(Ray, Vec3)> {
+fn direct_light<W: World>(
+    ctx: &Context<W>,
+    origin: Vec3,
+    n: Vec3,
+    rng: &mut Pcg32,
+) -> Option<(Ray, Vec3)> {
     let count = ctx.lights.len();
     if count == 0 {
         return None;
@@ -239,12 +263,12 @@ fn direct_light(ctx: &Context, origin: Vec3, n: Vec3, rng: &mut Pcg32) -> Option
     let pick = ((rng.next_f32() * count as f32) as usize).min(count - 1);
     let prim = ctx.lights[pick];
     let (u1, u2) = (rng.next_f32(), rng.next_f32());
-    let (q, nl, area) = point_on(ctx.scene, prim, u1, u2)?;
+    let (q, nl, area) = ctx.scene.point_on(prim, u1, u2)?;
     let to_light = q - origin;
     let dist2 = to_light.length_squared();
     let dist = math::sqrt(dist2);
     let wi = to_light / dist;
-    let light = ctx.material(prim);
+    let light = ctx.material(ctx.scene.light_material_id(prim));
     // A one-sided light sends nothing to points behind it (as emission where a ray lands on it).
     let cos_there = if light.two_sided {
         wi.dot(nl).abs()
@@ -263,43 +287,7 @@ fn direct_light(ctx: &Context, origin: Vec3, n: Vec3, rng: &mut Pcg32) -> Option
     Some((shadow, light))
 }
 
-/// A point on primitive `prim` uniform by area from `(u1, u2)` in `[0, 1)²`: the point, the unit
-/// normal there and the primitive's area; `None` for a degenerate primitive.
-fn point_on(scene: &Scene, prim: u32, u1: f32, u2: f32) -> Option<(Vec3, Vec3, f32)> {
-    let n_tris = scene.tri_count();
-    if prim >= n_tris {
-        let s = scene.sphere(prim - n_tris);
-        let z = 1.0 - 2.0 * u1;
-        let r = math::sqrt((1.0 - z * z).max(0.0));
-        let phi = 2.0 * PI * u2;
-        let n = Vec3::new(r * math::cos(phi), r * math::sin(phi), z);
-        return Some((s.center + s.radius * n, n, 4.0 * PI * s.radius * s.radius));
-    }
-    let tri = scene.triangle(prim);
-    let cross = tri.geometric_normal();
-    let area = 0.5 * cross.length();
-    let n = cross.try_normalize()?;
-    // Uniform on a triangle (Osada et al. 2002): √u1 picks the distance from v0.
-    let s = math::sqrt(u1);
-    Some((
-        tri.v0 + tri.e1 * (s * (1.0 - u2)) + tri.e2 * (s * u2),
-        n,
-        area,
-    ))
-}
-
 /// Fraction of a shadow ray's length left out at the light's end, so that the light's own surface
 /// (whose sampled point has rounding error) does not count as a blocker: pbrt-v4's
 /// `ShadowEpsilon` in `SpawnRayTo`, here 2⁻¹². The origin end needs no such slack (crate::spawn).
 const SHADOW_SLACK: f32 = 1.0 / (1 << 12) as f32;
-
-/// The unit geometric and shading normals at hit `hit` (point `p`), or `None` where they
-/// vanish (a degenerate triangle).
-fn normals(scene: &Scene, hit: &Hit, p: Vec3) -> Option<(Vec3, Vec3)> {
-    let geometric = scene.geometric_normal(hit.prim, p).try_normalize()?;
-    let shading = match scene.vertex_normals(hit.prim) {
-        Some(vn) => shading_normal(vn, hit.u, hit.v, geometric),
-        None => geometric,
-    };
-    Some((geometric, shading))
-}

@@ -4,6 +4,7 @@
 
 use super::path::{Context, Path, add_path, camera_path, vertex};
 use crate::camera::Camera;
+use crate::format::Scene;
 use crate::ray::Ray;
 use crate::simd::lanes::set_lanes;
 use crate::simd::{Lanes, RayPacket, f32x8};
@@ -13,7 +14,7 @@ use glam::Vec3;
 
 /// rays as 8-wide packets when `PACKETS`.
 pub(super) fn render_pixel<K: Contents, C: Camera, const PACKETS: bool>(
-    ctx: &Context,
+    ctx: &Context<Scene>,
     camera: &C,
     x: u32,
     y: u32,
@@ -45,7 +46,7 @@ pub(super) fn render_pixel<K: Contents, C: Camera, const PACKETS: bool>(
     }
 }
 
-fn trace_path<K: Contents>(ctx: &Context, path: &mut Path) {
+fn trace_path<K: Contents>(ctx: &Context<Scene>, path: &mut Path) {
     let mut hit = ctx.scene.intersect_with::<K>(&path.ray);
     for depth in 1..=ctx.settings.max_depth {
         let (goes_on, shadow) = vertex(ctx, path, &hit);
@@ -63,7 +64,7 @@ fn trace_path<K: Contents>(ctx: &Context, path: &mut Path) {
 /// so are its shadow rays, with the lanes of finished paths (or of paths without a shadow ray)
 /// inactive. Every lane does exactly what [`trace_path`] does for it, in the same order, and the
 /// packet traversal finds what the scalar walk finds, so the image is the same.
-fn trace_paths_packed<K: Contents>(ctx: &Context, paths: &mut [Path]) {
+fn trace_paths_packed<K: Contents>(ctx: &Context<Scene>, paths: &mut [Path]) {
     let scene = ctx.scene;
     let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
     let mut live = 0u32;

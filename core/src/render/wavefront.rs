@@ -19,6 +19,7 @@
 use super::path::{Context, Path, Shadow, add_path, camera_path, vertex};
 use super::{Frame, SampleSums};
 use crate::camera::Camera;
+use crate::format::Scene;
 use crate::ray::{Hit, Ray};
 use crate::traverse::Contents;
 use crate::traverse::stream::{self, Config};
@@ -161,7 +162,7 @@ fn trace_jobs<K: Contents, C: Camera, const N: usize>(
 
 impl<const N: usize> Wavefront<N> {
     /// Traces paths `0..n` to their ends, round by round.
-    fn run<K: Contents>(&mut self, ctx: &Context, n: usize) {
+    fn run<K: Contents>(&mut self, ctx: &Context<Scene>, n: usize) {
         let max_depth = ctx.settings.max_depth;
         let config = Config::default();
         let scene = ctx.scene;

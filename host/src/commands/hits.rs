@@ -19,15 +19,21 @@ pub struct HitsArgs {
     /// How many hits to print (default: all from --first on).
     #[arg(long)]
     pub count: Option<usize>,
+    /// The instance ids file that `kdray trace --instances` wrote beside the hits (n × u32):
+    /// each hit's line then ends with `instance=I`.
+    #[arg(long, value_name = "IDS.bin")]
+    pub instances: Option<PathBuf>,
 }
 
 /// Prints the hits `first..first + count` of the file, one line each: `INDEX t=T prim=P u=U v=V`
-/// (floats in Rust's shortest form that reads back to the same bits), or `INDEX miss`. Reads only
-/// those records (a hits file may be larger than memory).
+/// (floats in Rust's shortest form that reads back to the same bits), with ` instance=I` after
+/// it when `--instances` is given, or `INDEX miss`. Reads only those records (a hits file may be
+/// larger than memory).
 ///
 /// # Errors
-/// The file is not a whole number of hits, `--first` is past its end, reading it or writing to
-/// stdout fails (a closed pipe just ends the listing).
+/// The file is not a whole number of hits, `--first` is past its end, the instance ids file does
+/// not hold one id per hit, reading either or writing to stdout fails (a closed pipe just ends
+/// the listing).
 pub fn hits(args: &HitsArgs) -> Result<()> {
     let path = &args.file;
     let mut file = files::open(path)?;
@@ -44,6 +50,20 @@ pub fn hits(args: &HitsArgs) -> Result<()> {
     file.seek(std::io::SeekFrom::Start(first * rays::HIT_BYTES as u64))
         .map_err(|e| Error::io(path, e))?;
     let mut records = std::io::BufReader::new(file);
+    let mut ids = match &args.instances {
+        Some(ids_path) => {
+            let mut f = files::open(ids_path)?;
+            let len = f.metadata().map_err(|e| Error::io(ids_path, e))?.len();
+            if len != n * 4 {
+                let msg = format!("holds {len} bytes: expected one u32 for each of {n} hits");
+                return Err(Error::new(ids_path, msg));
+            }
+            f.seek(std::io::SeekFrom::Start(first * 4))
+                .map_err(|e| Error::io(ids_path, e))?;
+            Some((ids_path, std::io::BufReader::new(f)))
+        }
+        None => None,
+    };
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     let mut record = [0u8; rays::HIT_BYTES];
     for i in first..end {
@@ -51,8 +71,22 @@ pub fn hits(args: &HitsArgs) -> Result<()> {
             .read_exact(&mut record)
             .map_err(|e| Error::io(path, e))?;
         let h = rays::decode_hit(&record);
+        let instance = match &mut ids {
+            Some((ids_path, reader)) => {
+                let mut id = [0u8; 4];
+                reader
+                    .read_exact(&mut id)
+                    .map_err(|e| Error::io(ids_path, e))?;
+                format!(" instance={}", u32::from_le_bytes(id))
+            }
+            None => String::new(),
+        };
         let line = if h.is_hit() {
-            writeln!(out, "{i} t={} prim={} u={} v={}", h.t, h.prim, h.u, h.v)
+            writeln!(
+                out,
+                "{i} t={} prim={} u={} v={}{instance}",
+                h.t, h.prim, h.u, h.v
+            )
         } else {
             writeln!(out, "{i} miss")
         };

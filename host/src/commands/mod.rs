@@ -7,6 +7,7 @@ mod hits;
 mod merge;
 mod render;
 mod trace;
+mod trace_instanced;
 
 pub use accuracy::{AccuracyArgs, accuracy};
 pub use build::{BuildArgs, build, info};

@@ -15,7 +15,8 @@ use kdray::image::{self, Band, Format};
 use kdray::progressive::{self, Plan, Stats, Stop};
 use kdray::scene::{SceneCamera, SceneFile, load_scene};
 use kdray_core::Scene;
-use kdray_core::render::{self, Bounces, Frame, Material, Settings};
+use kdray_core::instance::InstancedScene;
+use kdray_core::render::{self, Bounces, Frame, InstanceLight, InstancedFrame, Material, Settings};
 use kdray_core::traverse::Mode;
 use kdray_core::words::Fnv1a;
 use std::path::{Path, PathBuf};
@@ -116,17 +117,38 @@ pub fn tile_rows(k: u32, n: u32, height: u32) -> Range<u32> {
     edge(k - 1)..edge(k)
 }
 
+/// A scene's trees: one, or (a scene with `[[instance]]` entries) one per mesh under a top level.
+pub(crate) enum Built {
+    Single {
+        words: Vec<u32>,
+        lights: Vec<u32>,
+    },
+    Instanced {
+        /// One tree per mesh (`InstancedGeometry::bottoms`), then the top level's words.
+        bottoms: Vec<Vec<u32>>,
+        top: Vec<u32>,
+        lights: Vec<InstanceLight>,
+    },
+}
+
+/// What `kdray render`'s line counts ([`Prepared::counts`]).
+pub(crate) struct Counts {
+    pub triangles: u64,
+    pub spheres: u64,
+    /// Copies and meshes, for a scene with instances.
+    pub instanced: Option<(u32, usize)>,
+}
+
 /// A scene loaded, built and ready to render: what `render` and `converge` share.
 pub(crate) struct Prepared {
     pub file: SceneFile,
-    pub words: Vec<u32>,
+    pub built: Built,
     /// Reading the scene file and its meshes and assembling the geometry, in ms.
     pub load_ms: f64,
     /// Making the tree, in ms: the build, its serialization and validation, the lights.
     pub build_ms: f64,
     pub camera: SceneCamera,
     pub materials: Vec<Material>,
-    pub lights: Vec<u32>,
 }
 
 impl Prepared {
@@ -143,41 +165,103 @@ impl Prepared {
         Ok(prepared)
     }
 
-    /// Builds `file`'s tree and finds its lights.
+    /// Builds `file`'s tree (or trees) and finds its lights.
     pub fn from_file(file: SceneFile) -> Result<Self> {
+        if file.has_instances() {
+            return Self::instanced(file);
+        }
         let start = Instant::now();
         let camera = file.camera()?;
         let geom = file.geometry()?;
         let load_ms = ms_since(start);
         let start = Instant::now();
-        // Wide nodes, and triangle groups where the scene has no spheres: the bounce and shadow
-        // rays that the stream cannot trace as packets walk them one by one (docs/BENCHMARKS.md,
-        // "Wide nodes").
-        let leaves = kdray::flat::Leaves::for_host(&geom);
-        let (words, _, _) = build_words(
-            &file.path,
-            &geom,
-            &leaves.build_params(),
-            kdray::flat::Layout::Wide,
-            leaves,
-        )?;
+        let words = build_tree(&file.path, &geom)?;
         let materials: Vec<Material> = file.materials.iter().map(|m| m.to_core()).collect();
         let scene = Scene::from_words(&words).map_err(|e| Error::new(&file.path, e.to_string()))?;
         let mut lights = vec![0; render::emitters(&scene, &materials, &mut [])];
         render::emitters(&scene, &materials, &mut lights);
         Ok(Self {
             file,
-            words,
+            built: Built::Single { words, lights },
             load_ms,
             build_ms: ms_since(start),
             camera,
             materials,
-            lights,
         })
     }
 
-    pub fn scene(&self) -> Result<Scene<'_>> {
-        Scene::from_words(&self.words).map_err(|e| Error::new(&self.file.path, e.to_string()))
+    /// A scene with instances: one tree per mesh, the top level over the copies, their lights.
+    fn instanced(file: SceneFile) -> Result<Self> {
+        let start = Instant::now();
+        let camera = file.camera()?;
+        let geom = file.instanced_geometry()?;
+        let load_ms = ms_since(start);
+        let start = Instant::now();
+        let bottoms = geom
+            .bottoms
+            .iter()
+            .map(|g| build_tree(&file.path, g))
+            .collect::<Result<Vec<_>>>()?;
+        let scenes = bottom_scenes(&file.path, &bottoms)?;
+        let top = kdray::instances::top_level(&scenes, &geom.placements)
+            .map_err(|msg| Error::new(&file.path, format!("[[instance]]: {msg}")))?;
+        let materials: Vec<Material> = file.materials.iter().map(|m| m.to_core()).collect();
+        let top_scene = InstancedScene::from_words(&top, &scenes)
+            .map_err(|e| Error::new(&file.path, e.to_string()))?;
+        let mut lights = vec![
+            InstanceLight {
+                instance: 0,
+                prim: 0
+            };
+            render::instanced_emitters(&top_scene, &materials, &mut [])
+        ];
+        render::instanced_emitters(&top_scene, &materials, &mut lights);
+        Ok(Self {
+            file,
+            built: Built::Instanced {
+                bottoms,
+                top,
+                lights,
+            },
+            load_ms,
+            build_ms: ms_since(start),
+            camera,
+            materials,
+        })
+    }
+
+    /// The triangles and spheres the image shows, every copy's counted (`triangles=`,
+    /// `spheres=`), and for an instanced scene its copies and meshes (`instances=`, `meshes=`).
+    pub fn counts(&self) -> Result<Counts> {
+        let path = &self.file.path;
+        match &self.built {
+            Built::Single { words, .. } => {
+                let s = Scene::from_words(words).map_err(|e| Error::new(path, e.to_string()))?;
+                Ok(Counts {
+                    triangles: s.tri_count().into(),
+                    spheres: s.sphere_count().into(),
+                    instanced: None,
+                })
+            }
+            Built::Instanced { bottoms, top, .. } => {
+                let scenes = bottom_scenes(path, bottoms)?;
+                let top = InstancedScene::from_words(top, &scenes)
+                    .map_err(|e| Error::new(path, e.to_string()))?;
+                let (mut tris, mut spheres) = (0u64, 0u64);
+                for i in 0..top.instance_count() {
+                    let b = top.bottom_of(i);
+                    (tris, spheres) = (
+                        tris + u64::from(b.tri_count()),
+                        spheres + u64::from(b.sphere_count()),
+                    );
+                }
+                Ok(Counts {
+                    triangles: tris,
+                    spheres,
+                    instanced: Some((top.instance_count(), bottoms.len())),
+                })
+            }
+        }
     }
 
     /// Renders `plan` with `settings` on `pool`, with a progress bar.
@@ -199,14 +283,6 @@ impl Prepared {
         pool: &rayon::ThreadPool,
         show_bar: bool,
     ) -> Result<(progressive::Film, Stats)> {
-        let scene = self.scene()?;
-        let frame = Frame {
-            scene: &scene,
-            camera: &self.camera,
-            materials: &self.materials,
-            lights: &self.lights,
-            settings,
-        };
         let done = AtomicU64::new(0);
         let pixels = u64::from(settings.width) * plan.rows.len() as u64;
         let bar = match (plan.stop.seconds, plan.stop.noise) {
@@ -224,11 +300,38 @@ impl Prepared {
             "{msg} {spinner} {pos} samples {elapsed}"
         };
         bar.set_style(ProgressStyle::with_template(template).expect("valid template"));
-        let result = with_progress(
-            &bar,
-            || done.load(Ordering::Relaxed),
-            || pool.install(|| progressive::render(&frame, plan, &done)),
-        );
+        let path = &self.file.path;
+        let result = match &self.built {
+            Built::Single { words, lights } => {
+                let scene =
+                    Scene::from_words(words).map_err(|e| Error::new(path, e.to_string()))?;
+                let frame = Frame {
+                    scene: &scene,
+                    camera: &self.camera,
+                    materials: &self.materials,
+                    lights,
+                    settings,
+                };
+                run_frame(&frame, plan, &done, &bar, pool)
+            }
+            Built::Instanced {
+                bottoms,
+                top,
+                lights,
+            } => {
+                let scenes = bottom_scenes(path, bottoms)?;
+                let scene = InstancedScene::from_words(top, &scenes)
+                    .map_err(|e| Error::new(path, e.to_string()))?;
+                let frame = InstancedFrame {
+                    scene: &scene,
+                    camera: &self.camera,
+                    materials: &self.materials,
+                    lights,
+                    settings,
+                };
+                run_frame(&frame, plan, &done, &bar, pool)
+            }
+        };
         let (film, stats) = result.map_err(|e| Error::new(&self.file.path, e.to_string()))?;
         match film.overflowed() {
             0 => Ok((film, stats)),
@@ -259,6 +362,39 @@ impl RenderArgs {
             None => PathBuf::from(format!("{stem}.png")),
         }
     }
+}
+
+/// `geom`'s tree as `kdray render` builds it: wide nodes, and triangle groups where the scene
+/// has no spheres (the bounce and shadow rays that the stream cannot trace as packets walk them
+/// one by one, docs/BENCHMARKS.md, "Wide nodes").
+fn build_tree(path: &Path, geom: &kdray::Geometry) -> Result<Vec<u32>> {
+    let leaves = kdray::flat::Leaves::for_host(geom);
+    let params = leaves.build_params();
+    let (words, _, _) = build_words(path, geom, &params, kdray::flat::Layout::Wide, leaves)?;
+    Ok(words)
+}
+
+/// [`progressive::render`] of `frame` on `pool`, `bar` showing the samples done.
+fn run_frame<F: progressive::Pixels>(
+    frame: &F,
+    plan: &Plan,
+    done: &AtomicU64,
+    bar: &ProgressBar,
+    pool: &rayon::ThreadPool,
+) -> core::result::Result<(progressive::Film, Stats), render::RenderError> {
+    with_progress(
+        bar,
+        || done.load(Ordering::Relaxed),
+        || pool.install(|| progressive::render(frame, plan, done)),
+    )
+}
+
+/// The bottom scenes of an instanced scene, validated.
+fn bottom_scenes<'a>(path: &Path, bottoms: &'a [Vec<u32>]) -> Result<Vec<Scene<'a>>> {
+    bottoms
+        .iter()
+        .map(|w| Scene::from_words(w).map_err(|e| Error::new(path, e.to_string())))
+        .collect()
 }
 
 /// Milliseconds since `start`.
@@ -324,7 +460,11 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     let written = Instant::now();
     image::write(&out, &band)?;
     let write_ms = ms_since(written);
-    let scene = prepared.scene()?;
+    let Counts {
+        triangles,
+        spheres,
+        instanced,
+    } = prepared.counts()?;
     let checksum = match args.checksum {
         true => {
             let mut h = Fnv1a::default();
@@ -335,8 +475,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     };
     println!(
         "wrote {}: {}x{}{}, {} spp, {:.2} s, {:.2} Mrays/s, est. RMSE {:.4} (relative {:.4}), \
-         passes={} max_depth={} triangles={} spheres={} threads={} load_ms={:.1} build_ms={:.1} \
-         render_ms={:.1} write_ms={:.1} total_ms={:.1}{checksum}",
+         passes={} max_depth={} triangles={triangles} spheres={spheres} threads={} load_ms={:.1} \
+         build_ms={:.1} render_ms={:.1} write_ms={:.1} total_ms={:.1}{checksum}{}",
         out.display(),
         settings.width,
         settings.height,
@@ -354,14 +494,16 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         stats.rel_rmse,
         stats.passes,
         settings.max_depth,
-        scene.tri_count(),
-        scene.sphere_count(),
         pool.current_num_threads(),
         prepared.load_ms,
         prepared.build_ms,
         stats.seconds * 1e3,
         write_ms,
         ms_since(start),
+        match instanced {
+            Some((copies, meshes)) => format!(" instances={copies} meshes={meshes}"),
+            None => String::new(),
+        },
     );
     Ok(())
 }

@@ -29,6 +29,13 @@ pub struct TraceArgs {
     /// prim = 0xFFFFFFFF, u = v = 0. `kdray hits FILE` prints it as text.
     #[arg(long, value_name = "HITS.bin")]
     pub out: PathBuf,
+    /// Also write each hit's instance id: n × u32 little-endian, one per ray in the rays' order,
+    /// 0xFFFFFFFF for a miss. For a scene file with [[instance]] entries the id is the copy's
+    /// number (docs/SCENE.md, "Instances") and the hits file's prim the primitive's index in
+    /// that copy's mesh; for a scene of one mesh every hit's id is 0. `kdray hits FILE
+    /// --instances IDS.bin` prints them beside the hits.
+    #[arg(long, value_name = "IDS.bin")]
+    pub instances: Option<PathBuf>,
     /// Rays per packet: 1 (single rays), or 4 or 8 consecutive rays traced together.
     #[arg(long, default_value_t = 1, value_parser = parse_packet)]
     pub packet: u32,
@@ -62,7 +69,7 @@ pub struct TraceArgs {
 }
 
 /// Rays per parallel work item: large enough to amortize scheduling, small enough to balance.
-const CHUNK: usize = 4096;
+pub(super) const CHUNK: usize = 4096;
 
 /// How `kdray trace` traces: packets of consecutive rays, single rays, or the stream API.
 #[derive(Clone, Copy, Debug)]
@@ -107,9 +114,26 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
         });
 }
 
+/// Writes `ids` (one per ray) as n × u32 little-endian: the `--instances` file.
+pub(super) fn write_instance_ids(path: &Path, ids: &[u32]) -> Result<()> {
+    files::write_atomic_with(path, |w| {
+        ids.iter()
+            .try_for_each(|id| std::io::Write::write_all(w, &id.to_le_bytes()))
+    })
+}
+
 pub fn trace(args: &TraceArgs) -> Result<()> {
-    files::check_outputs(&[&args.input, &args.rays], &[&args.out])?;
+    let outputs: Vec<&Path> = core::iter::once(args.out.as_path())
+        .chain(args.instances.as_deref())
+        .collect();
+    files::check_outputs(&[&args.input, &args.rays], &outputs)?;
     let rays = rays::read_rays(&args.rays)?;
+    if kdray::input::is_scene_file(&args.input) {
+        let file = kdray::scene::load_scene(&args.input)?;
+        if file.has_instances() {
+            return super::trace_instanced::trace(args, &file, &rays);
+        }
+    }
     // The hits' memory (16 bytes a ray) is asked for before the scene is loaded or built.
     let mut hits = Vec::new();
     if hits.try_reserve_exact(rays.len()).is_err() {
@@ -122,7 +146,7 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         return Err(Error::new(&args.rays, msg));
     }
     hits.resize(rays.len(), Hit::MISS);
-    let (words, build_ms) = load_scene_words(&args.input, &args.build, &[&args.out])?;
+    let (words, build_ms) = load_scene_words(&args.input, &args.build, &outputs)?;
     // Wide nodes on cache lines (see `flat::Aligned`).
     let words = kdray::flat::Aligned::new(&words);
     let scene = Scene::from_words(&words).map_err(|e| Error::new(&args.input, e.to_string()))?;
@@ -149,6 +173,13 @@ pub fn trace(args: &TraceArgs) -> Result<()> {
         best = best.min(start.elapsed().as_secs_f64());
     }
     files::write_atomic_with(&args.out, |w| rays::write_hits(w, &hits))?;
+    if let Some(path) = &args.instances {
+        let ids: Vec<u32> = hits
+            .iter()
+            .map(|h| if h.is_hit() { 0 } else { Hit::MISS_PRIM })
+            .collect();
+        write_instance_ids(path, &ids)?;
+    }
     let n_hits = hits.iter().filter(|h| h.is_hit()).count();
     let mrays = if best > 0.0 {
         rays.len() as f64 / best / 1e6

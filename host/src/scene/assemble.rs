@@ -19,7 +19,7 @@ const CORNER_UVS: TriUvs = [Vec2::ZERO, Vec2::X, Vec2::Y];
 
 /// Appends `part`'s triangles to `out`, all with `material`. Normals and texture coordinates
 /// survive when any part has them; triangles that lack them get face normals and corner uvs.
-fn append(out: &mut Geometry, part: Geometry, material: u32) {
+pub(super) fn append(out: &mut Geometry, part: Geometry, material: u32) {
     let before = out.triangles.len();
     let n = part.triangles.len();
     match (&mut out.normals, part.normals) {
@@ -48,9 +48,11 @@ fn append(out: &mut Geometry, part: Geometry, material: u32) {
 
 impl SceneFile {
     /// Loads the meshes (relative to the scene file's folder) and assembles the scene: every
-    /// mesh's triangles in `[[mesh]]` order, then the `[[triangle]]` entries, then the
-    /// `[[sphere]]` entries, with `tri_materials` and `sphere_materials` filled in. Normals and
-    /// texture coordinates are kept when any mesh has them (see `docs/SCENE.md`).
+    /// mesh's triangles in `[[mesh]]` order, then the `[[triangle]]` entries, then the copies that
+    /// `[[instance]]` entries make of named meshes (copy by copy), then the `[[sphere]]` entries,
+    /// with `tri_materials` and `sphere_materials` filled in. Normals and texture coordinates are
+    /// kept when any mesh has them (see `docs/SCENE.md`). A scene with instances comes out
+    /// flattened, one mesh; `kdray render` and `trace` use [`Self::instanced_geometry`] instead.
     ///
     /// # Errors
     /// A mesh that cannot be opened or loaded (naming the scene file and line, and the mesh
@@ -59,33 +61,75 @@ impl SceneFile {
     /// [`super::load_scene`] validated them).
     pub fn geometry(&self) -> Result<Geometry> {
         self.check_meshes()?;
+        let mut out = self.base_geometry()?;
+        if self.has_instances() {
+            let spheres = core::mem::take(&mut out.spheres);
+            let sphere_materials = core::mem::take(&mut out.sphere_materials);
+            self.flattened_copies(&mut out)?;
+            out.spheres = spheres;
+            out.sphere_materials = sphere_materials;
+        }
+        if out.prim_count() == 0 {
+            return Err(self.error(None, "the scene has no triangles or spheres".into()));
+        }
+        Ok(out)
+    }
+
+    /// The material index a `material` name at `line` resolves to, by `resolve` (a
+    /// [`Self::material_resolver`], built once for many entries).
+    fn resolved(
+        &self,
+        resolve: &impl Fn(Option<&str>) -> Option<u32>,
+        name: Option<&str>,
+        line: Option<usize>,
+    ) -> Result<u32> {
+        resolve(name)
+            .ok_or_else(|| self.error(line, format!("unknown material `{}`", name.unwrap_or(""))))
+    }
+
+    /// `[[mesh]]` entry `i` loaded (or taken from the binary), placed by its own transform, every
+    /// triangle with its material (resolved by `resolve`).
+    pub(super) fn mesh_part(
+        &self,
+        i: usize,
+        resolve: &impl Fn(Option<&str>) -> Option<u32>,
+    ) -> Result<Geometry> {
+        let m = &self.meshes[i];
+        let line = self.lines.mesh.get(i).copied();
+        let index = self.resolved(resolve, m.material.as_deref(), line)?;
+        let mut part = match self.embedded_mesh(&m.path) {
+            Some(bytes) => {
+                let format = MeshFormat::from_path(&m.path).unwrap_or(MeshFormat::Ply);
+                decode_mesh(format, &m.path, bytes)?
+            }
+            None => load_mesh(&self.mesh_file(&m.path))
+                .map_err(|e| self.error(line, format!("mesh `{}`: {e}", m.path.display())))?,
+        };
+        let placement = transform(m).map_err(|msg| self.error(line, msg))?;
+        if let Some(t) = placement {
+            t.apply(&mut part);
+        }
+        part.tri_materials = vec![index; part.triangles.len()];
+        Ok(part)
+    }
+
+    /// The scene without the copies of instances: the meshes without a name, the `[[triangle]]`
+    /// and the `[[sphere]]` entries (possibly nothing). The caller checks the meshes first.
+    pub(super) fn base_geometry(&self) -> Result<Geometry> {
         let mut out = Geometry::default();
         let resolve = self.material_resolver();
-        let material = |name: Option<&str>, line: Option<usize>| {
-            resolve(name).ok_or_else(|| {
-                self.error(line, format!("unknown material `{}`", name.unwrap_or("")))
-            })
-        };
         for (i, m) in self.meshes.iter().enumerate() {
-            let line = self.lines.mesh.get(i).copied();
-            let index = material(m.material.as_deref(), line)?;
-            let mut part = match self.embedded_mesh(&m.path) {
-                Some(bytes) => {
-                    let format = MeshFormat::from_path(&m.path).unwrap_or(MeshFormat::Ply);
-                    decode_mesh(format, &m.path, bytes)?
-                }
-                None => load_mesh(&self.mesh_file(&m.path))
-                    .map_err(|e| self.error(line, format!("mesh `{}`: {e}", m.path.display())))?,
-            };
-            let placement = transform(m).map_err(|msg| self.error(line, msg))?;
-            if let Some(t) = placement {
-                t.apply(&mut part);
+            if m.name.is_some() {
+                continue;
             }
+            let mut part = self.mesh_part(i, &resolve)?;
+            let index = part.tri_materials.first().copied().unwrap_or(0);
+            part.tri_materials.clear();
             append(&mut out, part, index);
         }
         for (i, t) in self.triangles.iter().enumerate() {
             let line = self.lines.triangle.get(i).copied();
-            let index = material(t.material.as_deref(), line)?;
+            let index = self.resolved(&resolve, t.material.as_deref(), line)?;
             let tri = [t.v0, t.v1, t.v2].map(Vec3::from);
             append(
                 &mut out,
@@ -100,10 +144,7 @@ impl SceneFile {
             let line = self.lines.sphere.get(i).copied();
             out.spheres.push((Vec3::from(s.center), s.radius));
             out.sphere_materials
-                .push(material(s.material.as_deref(), line)?);
-        }
-        if out.prim_count() == 0 {
-            return Err(self.error(None, "the scene has no triangles or spheres".into()));
+                .push(self.resolved(&resolve, s.material.as_deref(), line)?);
         }
         Ok(out)
     }

@@ -124,11 +124,34 @@ pub enum Scale {
 pub struct MeshDesc {
     /// `.ply`, `.ply.gz`, `.obj` or `.tri`, relative to the scene file's folder.
     pub path: PathBuf,
+    /// With a name, the mesh is not placed by itself: `[[instance]]` entries place copies of it
+    /// (its own transform applied first).
+    #[serde(default)]
+    pub name: Option<String>,
     /// Material name; the first material when omitted.
     pub material: Option<String>,
     pub translate: Option<[f32; 3]>,
     pub scale: Option<Scale>,
     pub rotate_deg: Option<[f32; 3]>,
+}
+
+/// Copies of a named `[[mesh]]`: each placed by the entry's transform (`translate`, `scale`,
+/// `rotate_deg` as for a mesh, or a 3×4 `matrix`), then moved by its cell of the optional
+/// `grid`: copy `(i, j, k)` by `(i·dx, j·dy, k·dz)` with `spacing = [dx, dy, dz]`.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct InstanceDesc {
+    /// The `name` of a `[[mesh]]` entry.
+    pub mesh: String,
+    pub translate: Option<[f32; 3]>,
+    pub scale: Option<Scale>,
+    pub rotate_deg: Option<[f32; 3]>,
+    /// Object → world, three rows `[a, b, c, t]`: `p' = A·p + t`. Not with the three above.
+    pub matrix: Option<[[f32; 4]; 3]>,
+    /// Copies along x, y and z, each ≥ 1 (default one).
+    pub grid: Option<[u32; 3]>,
+    /// The offset between neighbouring copies of the grid (required with `grid`).
+    pub spacing: Option<[f32; 3]>,
 }
 
 /// One triangle given in the scene file.

@@ -4,6 +4,7 @@
 use super::desc::{MeshDesc, Scale};
 use crate::geometry::Geometry;
 use glam::{Mat3, Vec3};
+use kdray_core::instance::Affine;
 
 /// A mesh's placement: `p' = linear·p + translate`; normals go through `normal` (the inverse
 /// transpose of `linear`) and are renormalized.
@@ -19,16 +20,29 @@ pub(super) struct Transform {
 /// # Errors
 /// Non-finite values or a zero scale factor, as a message.
 pub(super) fn transform(m: &MeshDesc) -> core::result::Result<Option<Transform>, String> {
-    if m.translate.is_none() && m.scale.is_none() && m.rotate_deg.is_none() {
+    transform_of(m.translate, m.scale, m.rotate_deg)
+}
+
+/// The transform of `translate`, `scale` and `rotate_deg` (as a `[[mesh]]` or an `[[instance]]`
+/// gives them), `None` when none is given.
+///
+/// # Errors
+/// Non-finite values or a zero scale factor, as a message.
+pub(super) fn transform_of(
+    translate: Option<[f32; 3]>,
+    scale: Option<Scale>,
+    rotate_deg: Option<[f32; 3]>,
+) -> core::result::Result<Option<Transform>, String> {
+    if translate.is_none() && scale.is_none() && rotate_deg.is_none() {
         return Ok(None);
     }
-    let scale = match m.scale {
+    let scale = match scale {
         None => Vec3::ONE,
         Some(Scale::Uniform(s)) => Vec3::splat(s),
         Some(Scale::PerAxis(s)) => Vec3::from(s),
     };
-    let translate = Vec3::from(m.translate.unwrap_or_default());
-    let rotate = Vec3::from(m.rotate_deg.unwrap_or_default());
+    let translate = Vec3::from(translate.unwrap_or_default());
+    let rotate = Vec3::from(rotate_deg.unwrap_or_default());
     if !(scale.is_finite() && translate.is_finite() && rotate.is_finite()) {
         return Err("translate, scale and rotate_deg must be finite".into());
     }
@@ -56,6 +70,16 @@ pub(super) fn transform(m: &MeshDesc) -> core::result::Result<Option<Transform>,
 }
 
 impl Transform {
+    /// The same transform as the core's 3×4 row-major [`Affine`].
+    pub(super) fn to_affine(self) -> Affine {
+        let (m, t) = (self.linear, self.translate);
+        let r = |i: usize| m.row(i);
+        let (r0, r1, r2) = (r(0), r(1), r(2));
+        Affine([
+            r0.x, r0.y, r0.z, t.x, r1.x, r1.y, r1.z, t.y, r2.x, r2.y, r2.z, t.z,
+        ])
+    }
+
     pub(super) fn apply(&self, g: &mut Geometry) {
         for v in g.triangles.iter_mut().flatten() {
             *v = self.linear * *v + self.translate;
@@ -79,6 +103,7 @@ mod tests {
     ) -> MeshDesc {
         MeshDesc {
             path: PathBuf::from("m.tri"),
+            name: None,
             material: None,
             translate,
             scale,

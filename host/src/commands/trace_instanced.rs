@@ -1,0 +1,127 @@
+//! `kdray trace` on a scene file with `[[instance]]` entries: one tree per mesh (built as
+//! `--leaves`, `--layout` and the build options say), the top level over the copies
+//! ([`kdray::instances::top_level`]), every ray through the two-level single-ray walk
+//! ([`InstancedScene::intersect_in`]). The hits file is the single-mesh one, `prim` the
+//! primitive's index in its mesh's input order; `--instances` writes each hit's instance id (the
+//! copy's number, `docs/SCENE.md`, "Instances").
+
+use super::build::build_words;
+use super::pool;
+use super::trace::{CHUNK, TraceArgs, write_instance_ids};
+use kdray::error::{Error, Result};
+use kdray::scene::SceneFile;
+use kdray::{files, rays};
+use kdray_core::instance::{InstanceHit, InstancedScene};
+use kdray_core::traverse::Mode;
+use kdray_core::{Hit, Ray, Scene};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Traces `rays` through the instanced scene `file` (see the module doc) and prints the line.
+///
+/// # Errors
+/// `--packet 4`/`8`, `--stream` or `--counts` (single rays only here, for now); what loading,
+/// building or writing refuses.
+pub(super) fn trace(args: &TraceArgs, file: &SceneFile, rays: &[Ray]) -> Result<()> {
+    if args.packet != 1 || args.stream || args.counts {
+        let msg = "has [[instance]] entries: its rays are traced one at a time through the \
+                   two-level walk, so --packet 4/8, --stream and --counts are not available \
+                   for it (drop them)";
+        return Err(Error::new(&args.input, msg));
+    }
+    let outputs: Vec<&std::path::Path> = core::iter::once(args.out.as_path())
+        .chain(args.instances.as_deref())
+        .collect();
+    files::check_not_inputs(&file.mesh_files(), &outputs)?;
+    let geom = file.instanced_geometry()?;
+    let start = Instant::now();
+    let bottoms = geom
+        .bottoms
+        .iter()
+        .map(|g| {
+            let leaves = args.build.leaves_for(g);
+            let params = args.build.params(leaves);
+            build_words(&file.path, g, &params, args.build.layout, leaves).map(|(w, _, _)| w)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let scenes = bottoms
+        .iter()
+        .map(|w| Scene::from_words(w).map_err(|e| Error::new(&file.path, e.to_string())))
+        .collect::<Result<Vec<_>>>()?;
+    let top = kdray::instances::top_level(&scenes, &geom.placements)
+        .map_err(|msg| Error::new(&file.path, format!("[[instance]]: {msg}")))?;
+    let scene = InstancedScene::from_words(&top, &scenes)
+        .map_err(|e| Error::new(&file.path, e.to_string()))?;
+    let build_ms = start.elapsed().as_secs_f64() * 1e3;
+    let pool = pool(&args.input, args.threads)?;
+    let mode = if args.watertight {
+        Mode::Watertight
+    } else {
+        Mode::Fast
+    };
+    let mut found = vec![InstanceHit::MISS; rays.len()];
+    let mut best = f64::INFINITY;
+    for _ in 0..args.repeat {
+        let start = Instant::now();
+        pool.install(|| {
+            found
+                .par_chunks_mut(CHUNK)
+                .zip(rays.par_chunks(CHUNK))
+                .for_each(|(h, r)| kdray::instances::trace_rays(&scene, mode, r, h));
+        });
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    let hits: Vec<Hit> = found.iter().map(|h| input_hit(&scene, h)).collect();
+    let ids: Vec<u32> = found.iter().map(|h| h.user_id).collect();
+    files::write_atomic_with(&args.out, |w| rays::write_hits(w, &hits))?;
+    if let Some(path) = &args.instances {
+        write_instance_ids(path, &ids)?;
+    }
+    let n_hits = hits.iter().filter(|h| h.is_hit()).count();
+    let mrays = if best > 0.0 {
+        rays.len() as f64 / best / 1e6
+    } else {
+        0.0
+    };
+    let first = &scenes[0];
+    println!(
+        "build_ms={build_ms:.3} prebuilt=0 trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet=1 isa={} threads={} mode={} stream=0 layout={} leaves={} instances={} meshes={}",
+        best * 1e3,
+        rays.len(),
+        kdray_core::isa::name(),
+        pool.current_num_threads(),
+        if args.watertight {
+            "watertight"
+        } else {
+            "fast"
+        },
+        if first.wide_nodes().is_empty() {
+            "nodes"
+        } else {
+            "wide"
+        },
+        if first.has_groups() { "groups" } else { "list" },
+        scene.instance_count(),
+        scenes.len(),
+    );
+    Ok(())
+}
+
+/// A two-level hit as the hits file writes it: `prim` in its mesh's input order.
+fn input_hit(scene: &InstancedScene, h: &InstanceHit) -> Hit {
+    if !h.is_hit() {
+        return Hit::MISS;
+    }
+    let bottom = scene.bottom_of(h.instance);
+    let prim = if bottom.reorders_triangles() {
+        bottom.input_id(h.prim)
+    } else {
+        h.prim
+    };
+    Hit {
+        t: h.t,
+        prim,
+        u: h.u,
+        v: h.v,
+    }
+}
