@@ -392,7 +392,38 @@ fn trace_writes_the_instance_of_each_hit() {
         line.ends_with(&format!(" instance={}", word(&ids, first_hit))),
         "{line}"
     );
-    // Packets and streams are the single-mesh walks': refused for instances, with the reason.
+    // Packets and the stream give the single rays' hits and instances, file for file.
+    for flags in [
+        &["--packet", "4"][..],
+        &["--packet", "8"],
+        &["--stream"],
+        &["--stream", "--packet", "8"],
+    ] {
+        let (out, way_ids) = (d.join("way.bin"), d.join("way-ids.bin"));
+        let mut args = vec![
+            "trace",
+            s(&a),
+            "--rays",
+            s(&rays_path),
+            "--out",
+            s(&out),
+            "--instances",
+            s(&way_ids),
+        ];
+        args.extend_from_slice(flags);
+        let o = kdray(&args);
+        assert!(
+            o.status.success(),
+            "{flags:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(std::fs::read(&out).unwrap() == two, "{flags:?}: other hits");
+        assert!(
+            std::fs::read(&way_ids).unwrap() == ids,
+            "{flags:?}: other instances"
+        );
+    }
+    // `--counts` counts a single-mesh walk's steps: refused for instances, with the reason.
     let o = kdray(&[
         "trace",
         s(&a),
@@ -400,8 +431,7 @@ fn trace_writes_the_instance_of_each_hit() {
         s(&rays_path),
         "--out",
         s(&d.join("x.bin")),
-        "--packet",
-        "8",
+        "--counts",
     ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("[[instance]]"));

@@ -1,7 +1,9 @@
 //! `kdray trace` on a scene file with `[[instance]]` entries: one tree per mesh (built as
 //! `--leaves`, `--layout` and the build options say), the top level over the copies
-//! ([`kdray::instances::top_level`]), every ray through the two-level single-ray walk
-//! ([`InstancedScene::intersect_in`]). The hits file is the single-mesh one, `prim` the
+//! ([`kdray::instances::top_level`]), the rays through the two-level walk: one at a time
+//! ([`InstancedScene::intersect_in`]), in packets of `--packet 4`/`8` of consecutive rays
+//! ([`InstancedScene::intersect_packet_in`]), or as a stream (`--stream`,
+//! [`kdray_core::instance::stream`]), the same hits each way. The hits file is the single-mesh one, `prim` the
 //! primitive's index in its mesh's input order; `--instances` writes each hit's instance id (the
 //! copy's number, `docs/SCENE.md`, "Instances").
 
@@ -11,8 +13,10 @@ use super::trace::{CHUNK, TraceArgs, write_instance_ids};
 use kdray::error::{Error, Result};
 use kdray::scene::SceneFile;
 use kdray::{files, rays};
-use kdray_core::instance::{InstanceHit, InstancedScene};
+use kdray_core::instance::{InstanceHit, InstancedScene, stream};
+use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::traverse::Mode;
+use kdray_core::traverse::stream::{Config, Packets, scratch_words};
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -20,13 +24,11 @@ use std::time::Instant;
 /// Traces `rays` through the instanced scene `file` (see the module doc) and prints the line.
 ///
 /// # Errors
-/// `--packet 4`/`8`, `--stream` or `--counts` (single rays only here, for now); what loading,
-/// building or writing refuses.
+/// `--counts` (the single-mesh walk's steps); what loading, building or writing refuses.
 pub(super) fn trace(args: &TraceArgs, file: &SceneFile, rays: &[Ray]) -> Result<()> {
-    if args.packet != 1 || args.stream || args.counts {
-        let msg = "has [[instance]] entries: its rays are traced one at a time through the \
-                   two-level walk, so --packet 4/8, --stream and --counts are not available \
-                   for it (drop them)";
+    if args.counts {
+        let msg = "has [[instance]] entries: --counts counts the steps of a single-mesh walk, \
+                   not of the two-level one (drop it)";
         return Err(Error::new(&args.input, msg));
     }
     let outputs: Vec<&std::path::Path> = core::iter::once(args.out.as_path())
@@ -63,12 +65,7 @@ pub(super) fn trace(args: &TraceArgs, file: &SceneFile, rays: &[Ray]) -> Result<
     let mut best = f64::INFINITY;
     for _ in 0..args.repeat {
         let start = Instant::now();
-        pool.install(|| {
-            found
-                .par_chunks_mut(CHUNK)
-                .zip(rays.par_chunks(CHUNK))
-                .for_each(|(h, r)| kdray::instances::trace_rays(&scene, mode, r, h));
-        });
+        pool.install(|| trace_all(&scene, rays, &mut found, mode, args));
         best = best.min(start.elapsed().as_secs_f64());
     }
     let hits: Vec<Hit> = found.iter().map(|h| input_hit(&scene, h)).collect();
@@ -85,9 +82,10 @@ pub(super) fn trace(args: &TraceArgs, file: &SceneFile, rays: &[Ray]) -> Result<
     };
     let first = &scenes[0];
     println!(
-        "build_ms={build_ms:.3} prebuilt=0 trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet=1 isa={} threads={} mode={} stream=0 layout={} leaves={} instances={} meshes={}",
+        "build_ms={build_ms:.3} prebuilt=0 trace_ms={:.3} mrays_s={mrays:.3} rays={} hits={n_hits} packet={} isa={} threads={} mode={} stream={} layout={} leaves={} instances={} meshes={}",
         best * 1e3,
         rays.len(),
+        args.packet,
         kdray_core::isa::name(),
         pool.current_num_threads(),
         if args.watertight {
@@ -95,6 +93,7 @@ pub(super) fn trace(args: &TraceArgs, file: &SceneFile, rays: &[Ray]) -> Result<
         } else {
             "fast"
         },
+        u8::from(args.stream),
         if first.wide_nodes().is_empty() {
             "nodes"
         } else {
@@ -105,6 +104,55 @@ pub(super) fn trace(args: &TraceArgs, file: &SceneFile, rays: &[Ray]) -> Result<
         scenes.len(),
     );
     Ok(())
+}
+
+/// Traces `rays` into `hits` (same length) as `args` say: the stream, packets or single rays.
+fn trace_all(
+    scene: &InstancedScene,
+    rays: &[Ray],
+    hits: &mut [InstanceHit],
+    mode: Mode,
+    args: &TraceArgs,
+) {
+    if args.stream {
+        // One stream per thread's share, in a few pieces to balance (as for a single mesh).
+        let threads = rayon::current_num_threads().max(1);
+        let chunk = rays.len().div_ceil(4 * threads).max(CHUNK);
+        let config = Config {
+            mode,
+            packets: match args.packet {
+                4 => Packets::Four,
+                8 => Packets::Eight,
+                _ => Packets::Off,
+            },
+            ..Config::default()
+        };
+        hits.par_chunks_mut(chunk)
+            .zip(rays.par_chunks(chunk))
+            .for_each(|(h, r)| {
+                let mut scratch = vec![0u64; scratch_words(r.len())];
+                // The lengths match by construction, so this cannot fail.
+                let _ = stream::intersect(scene, &config, r, h, &mut scratch);
+            });
+        return;
+    }
+    hits.par_chunks_mut(CHUNK)
+        .zip(rays.par_chunks(CHUNK))
+        .for_each(|(h, r)| match args.packet {
+            4 => packets::<f32x4>(scene, mode, r, h),
+            8 => packets::<f32x8>(scene, mode, r, h),
+            _ => kdray::instances::trace_rays(scene, mode, r, h),
+        });
+}
+
+/// `rays` in packets of `L::WIDTH` consecutive rays (the last one partial).
+fn packets<L: Lanes>(scene: &InstancedScene, mode: Mode, rays: &[Ray], hits: &mut [InstanceHit]) {
+    for (r, h) in rays.chunks(L::WIDTH).zip(hits.chunks_mut(L::WIDTH)) {
+        let packet = RayPacket::<L>::from_rays(r);
+        scene
+            .intersect_packet_in(mode, &packet)
+            .write_active(&packet, h);
+    }
 }
 
 /// A two-level hit as the hits file writes it: `prim` in its mesh's input order.
