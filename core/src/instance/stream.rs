@@ -2,8 +2,9 @@
 //! single-mesh stream ([`crate::traverse::stream`]) traces a scene, with its [`Config`], its
 //! scratch ([`scratch_words`]) and its errors.
 //!
-//! 1. Each run of `W` consecutive input rays that is coherent ([`Coherence`]) is traced as one
-//!    packet ([`InstancedScene::intersect_packet_in`]).
+//! 1. Each run of `W` consecutive input rays that is coherent
+//!    ([`Coherence`](crate::traverse::stream::Coherence)) is traced as one packet
+//!    ([`InstancedScene::intersect_packet_in`]).
 //! 2. The other rays, when some bottom scene has no wide nodes, are sorted by octant, origin and
 //!    direction (the single-mesh stream's keys over the top level's box), and the coherent runs
 //!    of that order are traced as packets; when every bottom scene has wide nodes, the one-ray
@@ -25,7 +26,7 @@ use crate::ray::Ray;
 use crate::simd::{Lanes, RayPacket, f32x4, f32x8};
 use crate::traverse::Mode;
 use crate::traverse::stream::order::{key, origin_scale};
-use crate::traverse::stream::{Coherence, Config, Packets, StreamError, scratch_words};
+use crate::traverse::stream::{Config, IDLE, Packets, StreamError, run_length, scratch_words};
 
 /// A query answered for a whole stream: its answer per ray, one ray's and one packet's.
 trait Answer {
@@ -208,30 +209,6 @@ fn stream<A: Answer, L: Lanes, const PACKETS: bool>(
         }
         i += 1;
     }
-}
-
-/// A ray no kernel hits, filling unused entries of a gathered batch.
-const IDLE: Ray = Ray {
-    origin: glam::Vec3::ZERO,
-    dir: glam::Vec3::ZERO,
-    tmin: f32::INFINITY,
-    tmax: f32::NEG_INFINITY,
-};
-
-/// How many rays from the start of `rays` may share a packet with the first (0 if it is not
-/// finite): the single-mesh stream's rule.
-#[inline(always)]
-fn run_length<'r>(
-    mut rays: impl Iterator<Item = &'r Ray>,
-    rule: &Coherence,
-    max_origin2: f32,
-) -> usize {
-    let Some(first) = rays.next().filter(|r| r.is_finite()) else {
-        return 0;
-    };
-    1 + rays
-        .take_while(|r| rule.admits(first, r, max_origin2))
-        .count()
 }
 
 /// Traces `batch` (all finite) as one packet; lane `l`'s answer goes to `out[index(l)]`.

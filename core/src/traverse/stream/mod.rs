@@ -34,6 +34,7 @@ use crate::ray::{Hit, Ray};
 use crate::simd::{f32x4, f32x8};
 use crate::traverse::{Contents, Mode, by_contents};
 use trace::{Answer, AnyHits, ClosestHits};
+pub(crate) use trace::{IDLE, run_length};
 
 /// `u64` words of scratch a stream of `rays` rays needs: a sort key and an index per ray.
 pub const fn scratch_words(rays: usize) -> usize {

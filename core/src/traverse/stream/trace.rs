@@ -172,7 +172,7 @@ fn walks_wide(scene: &Scene) -> bool {
 }
 
 /// A ray no kernel hits, filling unused entries of a gathered batch.
-const IDLE: Ray = Ray {
+pub(crate) const IDLE: Ray = Ray {
     origin: glam::Vec3::ZERO,
     dir: glam::Vec3::ZERO,
     tmin: f32::INFINITY,
@@ -182,7 +182,7 @@ const IDLE: Ray = Ray {
 /// How many rays from the start of `rays` may share a packet with the first (0 if it is not
 /// finite).
 #[inline(always)]
-fn run_length<'r>(
+pub(crate) fn run_length<'r>(
     mut rays: impl Iterator<Item = &'r Ray>,
     rule: &Coherence,
     max_origin2: f32,
