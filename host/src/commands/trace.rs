@@ -82,19 +82,7 @@ struct Tracer {
 /// Traces `rays` into `hits` (same length, pre-filled with misses).
 fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
     if how.stream {
-        // One stream per thread's share (in a few pieces, to balance): the longer the stream, the
-        // more coherent runs its sort finds.
-        let threads = rayon::current_num_threads().max(1);
-        let chunk = rays.len().div_ceil(4 * threads).max(CHUNK);
-        let config = stream::Config {
-            mode: how.mode,
-            packets: match how.packet {
-                4 => Packets::Four,
-                8 => Packets::Eight,
-                _ => Packets::Off,
-            },
-            ..stream::Config::default()
-        };
+        let (chunk, config) = stream_setup(rays.len(), how.mode, how.packet);
         hits.par_chunks_mut(chunk)
             .zip(rays.par_chunks(chunk))
             .for_each(|(h, r)| {
@@ -112,6 +100,24 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
             8 => rays::trace_packets_in::<f32x8>(scene, mode, r, h),
             _ => rays::trace_scalar_in(scene, mode, r, h),
         });
+}
+
+/// `--stream`'s piece length and configuration for `n` rays: one stream per thread's share, in a
+/// few pieces to balance (the longer the stream, the more coherent runs its sort finds), its
+/// coherent runs as packets of `packet` rays (4 or 8; otherwise none).
+pub(super) fn stream_setup(n: usize, mode: Mode, packet: u32) -> (usize, stream::Config) {
+    let threads = rayon::current_num_threads().max(1);
+    let chunk = n.div_ceil(4 * threads).max(CHUNK);
+    let config = stream::Config {
+        mode,
+        packets: match packet {
+            4 => Packets::Four,
+            8 => Packets::Eight,
+            _ => Packets::Off,
+        },
+        ..stream::Config::default()
+    };
+    (chunk, config)
 }
 
 /// Writes `ids` (one per ray) as n × u32 little-endian: the `--instances` file.

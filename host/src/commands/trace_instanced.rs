@@ -9,14 +9,14 @@
 
 use super::build::build_words;
 use super::pool;
-use super::trace::{CHUNK, TraceArgs, write_instance_ids};
+use super::trace::{CHUNK, TraceArgs, stream_setup, write_instance_ids};
 use kdray::error::{Error, Result};
 use kdray::scene::SceneFile;
 use kdray::{files, rays};
 use kdray_core::instance::{InstanceHit, InstancedScene, stream};
 use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::traverse::Mode;
-use kdray_core::traverse::stream::{Config, Packets, scratch_words};
+use kdray_core::traverse::stream::scratch_words;
 use kdray_core::{Hit, Ray, Scene};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -115,18 +115,7 @@ fn trace_all(
     args: &TraceArgs,
 ) {
     if args.stream {
-        // One stream per thread's share, in a few pieces to balance (as for a single mesh).
-        let threads = rayon::current_num_threads().max(1);
-        let chunk = rays.len().div_ceil(4 * threads).max(CHUNK);
-        let config = Config {
-            mode,
-            packets: match args.packet {
-                4 => Packets::Four,
-                8 => Packets::Eight,
-                _ => Packets::Off,
-            },
-            ..Config::default()
-        };
+        let (chunk, config) = stream_setup(rays.len(), mode, args.packet);
         hits.par_chunks_mut(chunk)
             .zip(rays.par_chunks(chunk))
             .for_each(|(h, r)| {
