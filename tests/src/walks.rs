@@ -5,7 +5,7 @@
 
 use kdray::Geometry;
 use kdray::build::{BuildParams, build};
-use kdray::flat::{Layout, Leaves, serialize_as};
+use kdray::flat::{Layout, Leaves, serialize, serialize_as};
 use kdray_core::simd::{HitPacket, Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config};
@@ -13,6 +13,24 @@ use kdray_core::{Hit, Ray, Scene};
 
 /// The walks [`trace_all`] runs, in its order.
 pub const WALKS: [&str; 5] = ["wide", "nodes", "packet 4", "packet 8", "stream"];
+
+/// `triangles` built (default SAH parameters, one thread) into words with index lists in binary
+/// nodes only ([`serialize`]'s tree: the packet walks' own, and the single-ray walk's too).
+///
+/// # Panics
+/// If the builder or the serializer refuses the triangles.
+pub fn node_words(triangles: Vec<[glam::Vec3; 3]>) -> Vec<u32> {
+    let geom = Geometry {
+        triangles,
+        ..Geometry::default()
+    };
+    let params = BuildParams {
+        parallel: false,
+        ..BuildParams::default()
+    };
+    let tree = build(&geom, &params, None).expect("the triangles build");
+    serialize(&tree, &geom, 0.0).expect("and serialize")
+}
 
 /// `triangles` built (default SAH parameters, one thread) into words with the wide section, with
 /// index lists (`groups` false) or triangle groups.

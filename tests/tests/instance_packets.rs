@@ -6,9 +6,6 @@
 //! translations exact in f32 against the merged mesh's single-ray walk, bit for bit.
 
 use glam::Vec3;
-use kdray::Geometry;
-use kdray::build::{BuildParams, build};
-use kdray::flat::serialize;
 use kdray::instances::{Placement, top_level};
 use kdray_core::instance::walk::into_instance;
 use kdray_core::instance::{Affine, InstanceHit, InstancedScene, stream};
@@ -17,23 +14,9 @@ use kdray_core::traverse::stream::{Config, Packets, scratch_words};
 use kdray_core::traverse::{Mode, Triangles, Watertight};
 use kdray_core::{Ray, Scene};
 use kdray_tests::strategies::{grid_point, grid_triangles, unit_vec3};
-use kdray_tests::walks::wide_words;
+use kdray_tests::walks::{node_words, wide_words};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
-
-/// Index lists in binary nodes only (the packet walks' own tree; the single-ray walk's too).
-fn node_words(triangles: Vec<[Vec3; 3]>) -> Vec<u32> {
-    let geom = Geometry {
-        triangles,
-        ..Geometry::default()
-    };
-    let params = BuildParams {
-        parallel: false,
-        ..BuildParams::default()
-    };
-    let tree = build(&geom, &params, None).unwrap();
-    serialize(&tree, &geom, 0.0).unwrap()
-}
 
 /// A transform: a random linear part (rotations, shears, mirrors) times a scale of either sign
 /// from 10⁻⁶ to 10⁶, and a translation of the scale's order; refused only if not invertible.

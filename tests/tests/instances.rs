@@ -12,21 +12,9 @@ use kdray_core::instance::{Affine, InstancedScene};
 use kdray_core::traverse::{Mode, Triangles, Watertight};
 use kdray_core::{Ray, Scene};
 use kdray_tests::strategies::{grid_point, grid_triangles, unit_vec3};
+use kdray_tests::walks::node_words;
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
-
-fn mesh_words(triangles: Vec<[Vec3; 3]>) -> Vec<u32> {
-    let geom = Geometry {
-        triangles,
-        ..Geometry::default()
-    };
-    let params = BuildParams {
-        parallel: false,
-        ..BuildParams::default()
-    };
-    let tree = build(&geom, &params, None).unwrap();
-    serialize(&tree, &geom, 0.0).unwrap()
-}
 
 /// A transform: a random linear part (entries in [-1, 1]: rotations, shears and mirrors alike)
 /// times a scale from 10⁻⁴ to 10⁴ of either sign, and a translation of the scale's order.
@@ -221,7 +209,7 @@ proptest! {
         placed in prop::collection::vec((0usize..2, transform()), 1..12),
         targets in prop::collection::vec((0usize..12, grid_point(), unit_vec3(), 0.5f32..20.0), 1..24),
     ) {
-        let words: Vec<Vec<u32>> = meshes.iter().map(|m| mesh_words(m.clone())).collect();
+        let words: Vec<Vec<u32>> = meshes.iter().map(|m| node_words(m.clone())).collect();
         let bottoms: Vec<Scene> = words.iter().map(|w| Scene::from_words(w).unwrap()).collect();
         let placements: Vec<Placement> = placed
             .iter()
@@ -256,7 +244,7 @@ proptest! {
         offsets in prop::collection::vec(prop::array::uniform3(-6i32..=6), 1..10),
         rays in prop::collection::vec((grid_point(), unit_vec3(), -3i32..=3), 1..40),
     ) {
-        let words = mesh_words(mesh.clone());
+        let words = node_words(mesh.clone());
         let bottoms = [Scene::from_words(&words).unwrap()];
         let offset = |k: usize| Vec3::from_array(offsets[k].map(|x| x as f32));
         let placements: Vec<Placement> = (0..offsets.len())
@@ -274,7 +262,7 @@ proptest! {
         let merged: Vec<[Vec3; 3]> = (0..offsets.len())
             .flat_map(|k| mesh.iter().map(move |tri| tri.map(|v| v + offset(k))))
             .collect();
-        let merged_words = mesh_words(merged);
+        let merged_words = node_words(merged);
         let merged = Scene::from_words(&merged_words).unwrap();
         // Storage id of each merged input triangle (for the tie check).
         let mut storage = vec![u32::MAX; mesh.len() * offsets.len()];
@@ -318,7 +306,7 @@ fn square() -> Vec<[Vec3; 3]> {
 
 #[test]
 fn mirrors_shears_and_huge_scales_have_known_answers() {
-    let words = mesh_words(square());
+    let words = node_words(square());
     let bottoms = [Scene::from_words(&words).unwrap()];
     let cases = [
         // Mirrored in x, at z = 2: the square covers x in [-1, 0]; (0.25, 0.75) lands at x = -0.25.
@@ -382,7 +370,7 @@ fn mirrors_shears_and_huge_scales_have_known_answers() {
 /// Non-finite rays and empty intervals are misses, never a panic.
 #[test]
 fn odd_rays_are_misses() {
-    let words = mesh_words(square());
+    let words = node_words(square());
     let bottoms = [Scene::from_words(&words).unwrap()];
     let placements = [Placement {
         bottom: 0,
