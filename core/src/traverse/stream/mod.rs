@@ -34,6 +34,8 @@ use crate::ray::{Hit, Ray};
 use crate::simd::{f32x4, f32x8};
 use crate::traverse::{Contents, Mode, by_contents};
 use trace::{Answer, AnyHits, ClosestHits};
+/// For the stream over a top level (`crate::instance::stream`).
+#[cfg(feature = "instances")]
 pub(crate) use trace::{IDLE, run_length};
 
 /// `u64` words of scratch a stream of `rays` rays needs: a sort key and an index per ray.
