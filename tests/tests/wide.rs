@@ -10,7 +10,7 @@ use kdray::Geometry;
 use kdray::build::{BuildParams, build};
 use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::format::{FormatError, contents, header, seal};
-use kdray_core::traverse::wide::walk::{RaySetup, slab, slab_scalar};
+use kdray_core::traverse::wide::walk::{RaySetup, in_order, slab, slab_scalar};
 use kdray_core::traverse::wide::{
     BOXES, EMPTY_BOX, LEAF_REF, NODE_WORDS, ORDERS, REFS, WIDTH, WideNode, set_slot_box, slot_box,
 };
@@ -149,6 +149,25 @@ proptest! {
                 prop_assert!(t == entry[slot] || (t.is_nan() && entry[slot].is_nan()), "slot {} entry {} vs {}", slot, t, entry[slot]);
             }
         }
+    }
+}
+
+proptest! {
+    /// The entered slots put in an octant's front-to-back order in lanes ([`in_order`]) are the
+    /// loop over the order word's positions: bit `k` is the slot at position `k` entered, for
+    /// the positions below the node's count and none past it (which read slot 0).
+    #[test]
+    fn entered_slots_in_order_match_the_loop_over_positions(
+        slots in Just((0..WIDTH as u32).collect::<Vec<_>>()).prop_shuffle(),
+        count in 1..=WIDTH,
+        mask in 0u32..256,
+    ) {
+        let order = slots[..count]
+            .iter()
+            .enumerate()
+            .fold((count as u32) << 24, |o, (k, &s)| o | s << (3 * k));
+        let expected = (0..count).fold(0, |bits, k| bits | (mask >> slots[k] & 1) << k);
+        prop_assert_eq!(in_order(order, mask), expected, "order {:#x} mask {:#b}", order, mask);
     }
 }
 

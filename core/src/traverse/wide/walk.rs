@@ -28,6 +28,7 @@ use crate::simd::{Lanes, f32x8};
 use crate::traverse::steps::Query;
 use crate::traverse::{Contents, ENTRY_SLACK, GAMMA3, TINY, WIDEN};
 use glam::Vec3;
+use wide::u32x8;
 
 /// What a ray's slab tests need, set up once per ray.
 #[derive(Clone, Copy, Debug)]
@@ -118,6 +119,34 @@ fn widen_up(t: f32x8) -> f32x8 {
     a.fast_max(b) + f32x8::splat(TINY)
 }
 
+/// The entered slots of `mask` in the octant's front-to-back `order`: bit `k` set when the
+/// slot at position `k` of `order` is entered, for the positions below the node's count (bits
+/// 24..28 of `order`; the positions past it read slot 0 and are left out, or a hit slot 0 would
+/// be pushed again for each and its subtree walked as many times more).
+///
+/// In lanes rather than a loop over the eight positions (issue 40, ordering the hit children
+/// with permutes): each position's slot is brought to bits 21..24 by a multiply (a per-lane
+/// left shift that every lane width has), the slot-indexed hit lanes are permuted into
+/// position order, and one move-mask gives the bits.
+#[inline(always)]
+pub fn in_order(order: u32, mask: u32) -> u32 {
+    const BITS: u32x8 = u32x8::new([1, 2, 4, 8, 16, 32, 64, 128]);
+    const ALIGN: u32x8 = u32x8::new([
+        1 << 21,
+        1 << 18,
+        1 << 15,
+        1 << 12,
+        1 << 9,
+        1 << 6,
+        1 << 3,
+        1,
+    ]);
+    let slots = (u32x8::splat(order) * ALIGN) >> 21 & u32x8::splat(7);
+    let entered = (u32x8::splat(mask) & BITS).simd_eq(BITS);
+    let count = order >> 24 & 15;
+    entered.shuffle(slots).to_bitmask() & ((1u32 << count) - 1)
+}
+
 /// The farthest entry distance still of use when the closest candidate is at `best`.
 #[inline(always)]
 fn limit_for(best: f32) -> f32 {
@@ -177,24 +206,25 @@ pub fn walk_counted<C: Contents, Q: Query>(
                     current = node[REFS + mask.trailing_zeros() as usize];
                     continue;
                 }
-                // The entered slots front to back; the nearest next, the others pushed farthest
-                // first so that they pop in order. At most 7 per level: the push cannot fail.
-                // Positions past the node's count (bits 24..28) read slot 0 and are skipped: if
-                // counted, a hit slot 0 was pushed again for each, and its subtree walked as
-                // many times more.
-                let count = (order >> 24) as usize;
-                let mut hit = [0usize; WIDTH];
-                let mut n = 0;
-                for k in 0..WIDTH {
-                    let slot = (order >> (3 * k) & 7) as usize;
-                    hit[n] = slot;
-                    n += (mask >> slot & 1) as usize & usize::from(k < count);
+                // The entered slots front to back: the nearest next, the others pushed
+                // farthest first so that they pop in order. At most 7 per level: the push
+                // cannot fail. Validation made the count's positions name every used slot, and
+                // only used slots are entered, so `front` is not empty; if it were, the walk
+                // would pop as for a miss.
+                let mut front = in_order(order, mask);
+                if front != 0 {
+                    let slot = |p: u32| (order >> (3 * p) & 7) as usize;
+                    let nearest = slot(front.trailing_zeros());
+                    front &= front - 1;
+                    while front != 0 {
+                        let p = 31 - front.leading_zeros();
+                        let s = slot(p);
+                        let _ = stack.push((node[REFS + s], entry[s]));
+                        front ^= 1 << p;
+                    }
+                    current = node[REFS + nearest];
+                    continue;
                 }
-                for &slot in hit[1..n].iter().rev() {
-                    let _ = stack.push((node[REFS + slot], entry[slot]));
-                }
-                current = node[REFS + hit[0]];
-                continue;
             }
         }
         // The next pending child entered before the closest hit (the stack is ordered only
