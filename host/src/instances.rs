@@ -73,11 +73,20 @@ struct Item {
     record: [u32; RECORD_WORDS],
 }
 
-/// What the splits sort: an item's centre and its index.
+/// What the splits sort: an item's centre, each coordinate as an integer in the order of
+/// [`f32::total_cmp`] ([`ordered`]: the same comparisons, so the same tree, as comparing the
+/// floats, in an integer compare instead of a call), and its index.
 #[derive(Clone, Copy)]
 struct Key {
-    centre: Vec3,
+    centre: [u32; 3],
     at: u32,
+}
+
+/// `x`'s bits turned so that unsigned integer order is [`f32::total_cmp`]'s order: negative
+/// values (sign set) reversed below the positive ones.
+fn ordered(x: f32) -> u32 {
+    let b = x.to_bits();
+    if b >> 31 == 1 { !b } else { b | 1 << 31 }
 }
 
 /// The words of the top level placing `bottoms` as `placements` say, records in the tree's
@@ -103,7 +112,7 @@ pub fn top_level(bottoms: &[Scene], placements: &[Placement]) -> Result<Vec<u32>
         .iter()
         .enumerate()
         .map(|(at, it)| Key {
-            centre: it.centre,
+            centre: it.centre.to_array().map(ordered),
             at: at as u32,
         })
         .collect();
@@ -175,9 +184,9 @@ fn subtree(
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     let (mut clo, mut chi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for k in keys.iter() {
-        let b = items[k.at as usize].bounds;
-        (lo, hi) = (lo.min(b[0]), hi.max(b[1]));
-        (clo, chi) = (clo.min(k.centre), chi.max(k.centre));
+        let it = &items[k.at as usize];
+        (lo, hi) = (lo.min(it.bounds[0]), hi.max(it.bounds[1]));
+        (clo, chi) = (clo.min(it.centre), chi.max(it.centre));
     }
     let at = nodes.len();
     let mut nd = [0u32; NODE_WORDS];
@@ -192,10 +201,46 @@ fn subtree(
     nodes.push(nd);
     let axis = (chi - clo).max_position();
     let mid = keys.len() / 2;
-    keys.select_nth_unstable_by(mid, |a, b| a.centre[axis].total_cmp(&b.centre[axis]));
+    keys.select_nth_unstable_by_key(mid, |k| k.centre[axis]);
     let (below, above) = keys.split_at_mut(mid);
     let d0 = subtree(items, below, nodes, records, depth + 1);
     nodes[at][node::CHILD_OR_FIRST] = nodes.len() as u32;
     let d1 = subtree(items, above, nodes, records, depth + 1);
     d0.max(d1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ordered;
+
+    /// The integer keys the splits compare order floats exactly as `f32::total_cmp` does, so
+    /// that the tree is the one the float comparisons built.
+    #[test]
+    fn ordered_keys_compare_as_total_cmp() {
+        let values = [
+            f32::NEG_INFINITY,
+            f32::MIN,
+            -1.5,
+            -f32::MIN_POSITIVE,
+            -1.0e-45,
+            -0.0,
+            0.0,
+            1.0e-45,
+            f32::MIN_POSITIVE,
+            0.75,
+            1.0,
+            3.0e38,
+            f32::MAX,
+            f32::INFINITY,
+        ];
+        for a in values {
+            for b in values {
+                assert_eq!(
+                    ordered(a).cmp(&ordered(b)),
+                    a.total_cmp(&b),
+                    "{a} against {b}"
+                );
+            }
+        }
+    }
 }

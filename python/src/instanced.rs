@@ -257,7 +257,11 @@ impl Top {
         });
         let words = words.map_err(value_error)?;
         let parts = Parts { words, ..parts };
-        let levels = Levels::try_new(parts, |p| InstancedScene::from_words(&p.words, &p.scenes))
+        // Built just now by `top_level`: opened as the builder's own words (the tree's shape and
+        // the bottom indices checked, not the checksum and the records' f64 checks).
+        let levels = Levels::try_new(parts, |p| {
+            InstancedScene::from_built_words(&p.words, &p.scenes)
+        })
             .map_err(|e| {
                 value_error(format!(
                     "the top level does not validate ({e}): please report"

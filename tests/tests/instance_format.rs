@@ -193,9 +193,65 @@ fn each_kind_of_damage_has_its_error() {
     );
 }
 
+/// The builder's own words opened without the checksum and the records' f64 checks
+/// (`from_built_words`, what the packages run when instances move) still refuse what would take
+/// a walk out of range: a bottom index, a child pointer, counts, a length, a depth.
+#[test]
+fn built_words_keep_the_checks_that_bound_the_walk() {
+    let mesh = mesh_words();
+    let bottoms = [Scene::from_words(&mesh).unwrap()];
+    let words = top_level(&bottoms, &placements()).unwrap();
+    let open = |w: &[u32]| InstancedScene::from_built_words(w, &bottoms).map(|_| ());
+    assert_eq!(open(&words), Ok(()));
+    // Not checked: the checksum (a flipped bit in a user id is accepted).
+    let mut w = words.clone();
+    w[record_word(&words, 0, record::USER_ID)] ^= 1 << 9;
+    assert_eq!(open(&w), Ok(()));
+    // Checked, without resealing (the checksum is not what refuses them).
+    let edit = |f: &dyn Fn(&mut Vec<u32>)| {
+        let mut w = words.clone();
+        f(&mut w);
+        w
+    };
+    assert_eq!(open(&words[..10]), Err(InstanceError::TooShort));
+    assert!(matches!(
+        open(&words[..words.len() - 1]),
+        Err(InstanceError::LengthMismatch { .. })
+    ));
+    assert_eq!(open(&mesh), Err(InstanceError::SingleMesh));
+    assert_eq!(
+        open(&edit(&|w| w[record_word(&words, 3, record::BOTTOM)] = 1)),
+        Err(InstanceError::BadBottom { instance: 3 })
+    );
+    let child = HEADER_WORDS + 6;
+    assert_eq!(
+        open(&edit(&|w| w[child] = 0)),
+        Err(InstanceError::BadChild { node: 0 })
+    );
+    assert_eq!(
+        open(&edit(&|w| w[child] = 1000)),
+        Err(InstanceError::BadChild { node: 0 })
+    );
+    assert_eq!(
+        open(&edit(&|w| w[header::DEPTH] += 1)),
+        Err(InstanceError::BadDepth)
+    );
+    assert_eq!(
+        open(&edit(&|w| w[header::NODE_COUNT] = u32::MAX)),
+        Err(InstanceError::BadCounts)
+    );
+    assert_eq!(
+        open(&edit(
+            &|w| w[record_word(&words, 1, record::BOX)] = f32::NAN.to_bits()
+        )),
+        Err(InstanceError::BadInstanceBox { instance: 1 })
+    );
+}
+
 /// Every word of a top level replaced by each of a few values, resealed: refused with an error or
 /// accepted, never a panic, and an accepted one traces a fan of rays in both modes, any hit
-/// agreeing with closest hit.
+/// agreeing with closest hit — opened by `from_words`, and by `from_built_words`, which checks
+/// less and so accepts more: its walks must stay in range all the same.
 #[test]
 fn every_word_replaced_is_refused_or_traced() {
     let mesh = mesh_words();
@@ -212,34 +268,47 @@ fn every_word_replaced_is_refused_or_traced() {
         1.0f32.to_bits(),
         1.0e30f32.to_bits(),
     ];
-    let mut accepted = 0;
-    for i in 0..words.len() {
-        if i == header::CHECKSUM || i == header::CHECKSUM + 1 {
-            continue;
-        }
-        for &v in &values {
-            let w = crafted(&words, |w| w[i] = v);
-            let Ok(top) = InstancedScene::from_words(&w, &bottoms) else {
+    for built in [false, true] {
+        let name = if built {
+            "from_built_words"
+        } else {
+            "from_words"
+        };
+        let mut accepted = 0;
+        for i in 0..words.len() {
+            if i == header::CHECKSUM || i == header::CHECKSUM + 1 {
                 continue;
-            };
-            accepted += 1;
-            for k in 0..16 {
-                let a = k as f32 * 0.4;
-                let ray = Ray::new(
-                    Vec3::new(12.0 * a.cos(), 12.0 * a.sin(), 5.0),
-                    Vec3::new(-a.cos(), -a.sin(), -0.4).normalize(),
-                );
-                for mode in [Mode::Fast, Mode::Watertight] {
-                    let hit = top.intersect_in(mode, &ray);
-                    assert_eq!(
-                        top.occluded_in(mode, &ray),
-                        hit.is_hit(),
-                        "word {i} = {v:#x}"
+            }
+            for &v in &values {
+                let w = crafted(&words, |w| w[i] = v);
+                let top = if built {
+                    InstancedScene::from_built_words(&w, &bottoms)
+                } else {
+                    InstancedScene::from_words(&w, &bottoms)
+                };
+                let Ok(top) = top else {
+                    continue;
+                };
+                accepted += 1;
+                for k in 0..16 {
+                    let a = k as f32 * 0.4;
+                    let ray = Ray::new(
+                        Vec3::new(12.0 * a.cos(), 12.0 * a.sin(), 5.0),
+                        Vec3::new(-a.cos(), -a.sin(), -0.4).normalize(),
                     );
+                    for mode in [Mode::Fast, Mode::Watertight] {
+                        let hit = top.intersect_in(mode, &ray);
+                        assert_eq!(
+                            top.occluded_in(mode, &ray),
+                            hit.is_hit(),
+                            "{name}: word {i} = {v:#x}"
+                        );
+                    }
                 }
             }
         }
+        // Some replacements are harmless (a user id, a box grown, a reserved-free bit of a
+        // float).
+        assert!(accepted > 0, "{name}");
     }
-    // Some replacements are harmless (a user id, a box grown, a reserved-free bit of a float).
-    assert!(accepted > 0);
 }

@@ -93,7 +93,9 @@ impl Top {
         // SAFETY: just leaked; freed by `clear`, which first drops the view.
         let shared: &'static [u32] = unsafe { &*ptr };
         self.words = Some(ptr);
-        let top = InstancedScene::from_words(shared, bottoms)
+        // Built by this module just now: opened as the builder's own words (the tree's shape and
+        // the bottom indices checked, not the checksum and the records' f64 checks).
+        let top = InstancedScene::from_built_words(shared, bottoms)
             .map_err(|e| bad(format!("internal: the top level was refused: {e}")))?;
         self.top = Some(top);
         Ok(list.len() as i32)
