@@ -295,6 +295,56 @@ proptest! {
     }
 }
 
+/// `world_box` as its doc defines it: the least and greatest of the eight corners' f64 images
+/// (`corners64`), padded and rounded outward, bit for bit.
+fn world_box_from_corners(a: &Affine, bounds: [Vec3; 2]) -> Option<[Vec3; 2]> {
+    let corners = a.corners64(bounds);
+    let (mut lo, mut hi) = (corners[0], corners[0]);
+    for c in &corners[1..] {
+        for k in 0..3 {
+            (lo[k], hi[k]) = (lo[k].min(c[k]), hi[k].max(c[k]));
+        }
+    }
+    let size = (0..3).fold(0.0f64, |m, k| {
+        m.max(lo[k].abs()).max(hi[k].abs()).max(hi[k] - lo[k])
+    });
+    let pad = kdray_core::instance::affine::BOX_PADDING * size;
+    let down = |x: f64| {
+        let y = x as f32;
+        if y as f64 > x { y.next_down() } else { y }
+    };
+    let up = |x: f64| {
+        let y = x as f32;
+        if (y as f64) < x { y.next_up() } else { y }
+    };
+    let b = [
+        Vec3::from_array(lo.map(|x| down(x - pad))),
+        Vec3::from_array(hi.map(|x| up(x + pad))),
+    ];
+    (b[0].is_finite() && b[1].is_finite()).then_some(b)
+}
+
+proptest! {
+    /// The per-row world box (Arvo's) is the eight corners' box bit for bit, and contains the
+    /// corners' images as validation checks them.
+    #[test]
+    fn world_box_is_the_corners_box(
+        a in transform(),
+        lo in prop::array::uniform3(-1.0e3f32..1.0e3),
+        size in prop::array::uniform3(prop_oneof![Just(0.0f32), 0.0f32..100.0]),
+    ) {
+        let lo = Vec3::from_array(lo);
+        let bounds = [lo, lo + Vec3::from_array(size)];
+        let got = a.world_box(bounds);
+        let want = world_box_from_corners(&a, bounds);
+        prop_assert_eq!(got.map(|b| b.map(|v| v.to_array().map(f32::to_bits))),
+            want.map(|b| b.map(|v| v.to_array().map(f32::to_bits))));
+        if let Some(b) = got {
+            prop_assert!(a.box_contains_image(b, bounds));
+        }
+    }
+}
+
 /// A unit square in z = 0 (two triangles), its corner at the origin.
 fn square() -> Vec<[Vec3; 3]> {
     let p = |x, y| Vec3::new(x, y, 0.0);

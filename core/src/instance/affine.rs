@@ -181,15 +181,28 @@ impl Affine {
     }
 
     /// The world box the host stores for an instance of a bottom scene with box `bounds`: the
-    /// corners' images in f64 ([`Self::corners64`]), grown by [`BOX_PADDING`] of their largest
-    /// magnitude and extent, rounded outward to f32. `None` if it is not finite in f32.
+    /// least and greatest of the corners' images in f64 ([`Self::corners64`]), grown by
+    /// [`BOX_PADDING`] of their largest magnitude and extent, rounded outward to f32. `None` if
+    /// it is not finite in f32.
+    ///
+    /// Computed per row without the eight corners (Arvo 1990, "Transforming axis-aligned
+    /// bounding boxes"): the least image on row `r` takes, term by term, the lesser of
+    /// `a_rj·lo_j` and `a_rj·hi_j` and sums them in [`Self::point64`]'s order. That is the
+    /// image of one corner, bit for bit, and no corner's is less, since every term of another
+    /// corner is at least as large and rounded addition is monotone; likewise the greatest. So
+    /// the box is the corners' exactly, for a third of the arithmetic.
     pub fn world_box(&self, bounds: [Vec3; 2]) -> Option<[Vec3; 2]> {
-        let corners = self.corners64(bounds);
-        let (mut lo, mut hi) = (corners[0], corners[0]);
-        for c in &corners[1..] {
-            for a in 0..3 {
-                (lo[a], hi[a]) = (lo[a].min(c[a]), hi[a].max(c[a]));
-            }
+        let (b0, b1) = (bounds[0].to_array(), bounds[1].to_array());
+        let t = self.translation64();
+        let (mut lo, mut hi) = ([0.0f64; 3], [0.0f64; 3]);
+        for r in 0..3 {
+            let a = self.row64(r);
+            let terms: [(f64, f64); 3] = core::array::from_fn(|j| {
+                let (p, q) = (a[j] * b0[j] as f64, a[j] * b1[j] as f64);
+                if p <= q { (p, q) } else { (q, p) }
+            });
+            lo[r] = terms[0].0 + terms[1].0 + terms[2].0 + t[r];
+            hi[r] = terms[0].1 + terms[1].1 + terms[2].1 + t[r];
         }
         let size = (0..3).fold(0.0f64, |m, a| {
             m.max(lo[a].abs()).max(hi[a].abs()).max(hi[a] - lo[a])
