@@ -230,30 +230,37 @@ impl Top {
                     user_id: k as u32,
                 })
                 .collect();
-            for (k, p) in placements.iter().enumerate() {
-                let name = || format!("geometry {}, instance {}", g[k], i[k]);
-                let scene = parts
-                    .scenes
-                    .get(p.bottom as usize)
-                    .ok_or_else(|| format!("{}: no such mesh", name()))?;
-                if !p.transform.is_finite() {
-                    return Err(format!("{}: the transform is not finite", name()));
-                }
-                if p.transform.inverse().is_none() {
-                    return Err(format!(
-                        "{}: the transform is singular (or nearly: its rows are almost \
-                         dependent), so it has no inverse",
-                        name()
-                    ));
-                }
-                if p.transform.world_box(scene.bounds()).is_none() {
-                    return Err(format!(
-                        "{}: the transform carries the mesh beyond float32's range",
-                        name()
-                    ));
-                }
-            }
-            top_level(&parts.scenes, &placements)
+            // The checks run again only when the build refuses a placement, to name it by its
+            // geometry and instance and say why (a frame of 10,000 placements that all pass
+            // pays for their inverses and boxes once, in `top_level`).
+            top_level(&parts.scenes, &placements).map_err(|refused| {
+                placements
+                    .iter()
+                    .enumerate()
+                    .find_map(|(k, p)| {
+                        let name = || format!("geometry {}, instance {}", g[k], i[k]);
+                        let Some(scene) = parts.scenes.get(p.bottom as usize) else {
+                            return Some(format!("{}: no such mesh", name()));
+                        };
+                        if !p.transform.is_finite() {
+                            return Some(format!("{}: the transform is not finite", name()));
+                        }
+                        if p.transform.inverse().is_none() {
+                            return Some(format!(
+                                "{}: the transform is singular (or nearly: its rows are almost \
+                                 dependent), so it has no inverse",
+                                name()
+                            ));
+                        }
+                        p.transform.world_box(scene.bounds()).is_none().then(|| {
+                            format!(
+                                "{}: the transform carries the mesh beyond float32's range",
+                                name()
+                            )
+                        })
+                    })
+                    .unwrap_or(refused)
+            })
         });
         let words = words.map_err(value_error)?;
         let parts = Parts { words, ..parts };
@@ -262,11 +269,11 @@ impl Top {
         let levels = Levels::try_new(parts, |p| {
             InstancedScene::from_built_words(&p.words, &p.scenes)
         })
-            .map_err(|e| {
-                value_error(format!(
-                    "the top level does not validate ({e}): please report"
-                ))
-            })?;
+        .map_err(|e| {
+            value_error(format!(
+                "the top level does not validate ({e}): please report"
+            ))
+        })?;
         Ok(Self {
             levels,
             geometry: g.to_vec(),
