@@ -89,6 +89,11 @@ fn ordered(x: f32) -> u32 {
     if b >> 31 == 1 { !b } else { b | 1 << 31 }
 }
 
+/// The float whose [`ordered`] key is `k`.
+fn unordered(k: u32) -> f32 {
+    f32::from_bits(if k >> 31 == 1 { k & !(1 << 31) } else { !k })
+}
+
 /// The words of the top level placing `bottoms` as `placements` say, records in the tree's
 /// leaf order (a hit's [`instance`](kdray_core::instance::InstanceHit::instance) indexes them;
 /// its `user_id` is the placement's).
@@ -118,7 +123,7 @@ pub fn top_level(bottoms: &[Scene], placements: &[Placement]) -> Result<Vec<u32>
         .collect();
     let mut nodes = Vec::with_capacity(2 * placements.len() / LEAF_MAX + 1);
     let mut records = Vec::with_capacity(placements.len());
-    let depth = subtree(&items, &mut keys, &mut nodes, &mut records, 0);
+    let (depth, _) = subtree(&items, &mut keys, &mut nodes, &mut records, 0);
     let total = HEADER_WORDS + NODE_WORDS * nodes.len() + RECORD_WORDS * records.len();
     let mut words = vec![0u32; HEADER_WORDS];
     words.reserve(total - HEADER_WORDS);
@@ -173,48 +178,59 @@ fn box_words(b: [Vec3; 2]) -> [u32; 6] {
 }
 
 /// Appends the subtree over the items that `keys` name to `nodes` in pre-order and its leaves'
-/// records to `records`; returns its depth below `depth`'s level (the deepest leaf's depth).
+/// records to `records`; returns its depth below `depth`'s level (the deepest leaf's depth) and
+/// its box. The box of an interior node is its children's union, written once they are built,
+/// so that only a leaf reads its items (scattered in memory) and each level's scan for the
+/// split axis reads the keys in order; min and max are exact, so it is the union of the items'
+/// boxes all the same.
 fn subtree(
     items: &[Item],
     keys: &mut [Key],
     nodes: &mut Vec<[u32; NODE_WORDS]>,
     records: &mut Vec<[u32; RECORD_WORDS]>,
     depth: u32,
-) -> u32 {
-    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    let (mut clo, mut chi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for k in keys.iter() {
-        let it = &items[k.at as usize];
-        (lo, hi) = (lo.min(it.bounds[0]), hi.max(it.bounds[1]));
-        (clo, chi) = (clo.min(it.centre), chi.max(it.centre));
-    }
+) -> (u32, [Vec3; 2]) {
     let at = nodes.len();
     let mut nd = [0u32; NODE_WORDS];
-    nd[node::BOX..node::BOX + 6].copy_from_slice(&box_words([lo, hi]));
     if keys.len() <= LEAF_MAX {
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for k in keys.iter() {
+            let b = items[k.at as usize].bounds;
+            (lo, hi) = (lo.min(b[0]), hi.max(b[1]));
+        }
+        nd[node::BOX..node::BOX + 6].copy_from_slice(&box_words([lo, hi]));
         nd[node::CHILD_OR_FIRST] = records.len() as u32;
         nd[node::COUNT] = keys.len() as u32;
         nodes.push(nd);
         records.extend(keys.iter().map(|k| items[k.at as usize].record));
-        return depth;
+        return (depth, [lo, hi]);
     }
     nodes.push(nd);
-    let axis = (chi - clo).max_position();
+    let (mut clo, mut chi) = ([u32::MAX; 3], [0u32; 3]);
+    for k in keys.iter() {
+        for a in 0..3 {
+            (clo[a], chi[a]) = (clo[a].min(k.centre[a]), chi[a].max(k.centre[a]));
+        }
+    }
+    let extent = Vec3::from_array(chi.map(unordered)) - Vec3::from_array(clo.map(unordered));
+    let axis = extent.max_position();
     let mid = keys.len() / 2;
     keys.select_nth_unstable_by_key(mid, |k| k.centre[axis]);
     let (below, above) = keys.split_at_mut(mid);
-    let d0 = subtree(items, below, nodes, records, depth + 1);
+    let (d0, b0) = subtree(items, below, nodes, records, depth + 1);
     nodes[at][node::CHILD_OR_FIRST] = nodes.len() as u32;
-    let d1 = subtree(items, above, nodes, records, depth + 1);
-    d0.max(d1)
+    let (d1, b1) = subtree(items, above, nodes, records, depth + 1);
+    let b = [b0[0].min(b1[0]), b0[1].max(b1[1])];
+    nodes[at][node::BOX..node::BOX + 6].copy_from_slice(&box_words(b));
+    (d0.max(d1), b)
 }
 
 #[cfg(test)]
 mod tests {
-    use super::ordered;
+    use super::{ordered, unordered};
 
     /// The integer keys the splits compare order floats exactly as `f32::total_cmp` does, so
-    /// that the tree is the one the float comparisons built.
+    /// that the tree is the one the float comparisons built, and turn back into the same float.
     #[test]
     fn ordered_keys_compare_as_total_cmp() {
         let values = [
@@ -234,6 +250,7 @@ mod tests {
             f32::INFINITY,
         ];
         for a in values {
+            assert_eq!(unordered(ordered(a)).to_bits(), a.to_bits(), "{a}");
             for b in values {
                 assert_eq!(
                     ordered(a).cmp(&ordered(b)),
