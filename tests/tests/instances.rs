@@ -296,7 +296,7 @@ proptest! {
 }
 
 /// `world_box` as its doc defines it: the least and greatest of the eight corners' f64 images
-/// (`corners64`), padded and rounded outward, bit for bit.
+/// (`corners64`), padded and rounded outward (`padded_box`).
 fn world_box_from_corners(a: &Affine, bounds: [Vec3; 2]) -> Option<[Vec3; 2]> {
     let corners = a.corners64(bounds);
     let (mut lo, mut hi) = (corners[0], corners[0]);
@@ -305,23 +305,7 @@ fn world_box_from_corners(a: &Affine, bounds: [Vec3; 2]) -> Option<[Vec3; 2]> {
             (lo[k], hi[k]) = (lo[k].min(c[k]), hi[k].max(c[k]));
         }
     }
-    let size = (0..3).fold(0.0f64, |m, k| {
-        m.max(lo[k].abs()).max(hi[k].abs()).max(hi[k] - lo[k])
-    });
-    let pad = kdray_core::instance::affine::BOX_PADDING * size;
-    let down = |x: f64| {
-        let y = x as f32;
-        if y as f64 > x { y.next_down() } else { y }
-    };
-    let up = |x: f64| {
-        let y = x as f32;
-        if (y as f64) < x { y.next_up() } else { y }
-    };
-    let b = [
-        Vec3::from_array(lo.map(|x| down(x - pad))),
-        Vec3::from_array(hi.map(|x| up(x + pad))),
-    ];
-    (b[0].is_finite() && b[1].is_finite()).then_some(b)
+    kdray_core::instance::affine::padded_box(lo, hi)
 }
 
 proptest! {

@@ -204,23 +204,7 @@ impl Affine {
             lo[r] = terms[0].0 + terms[1].0 + terms[2].0 + t[r];
             hi[r] = terms[0].1 + terms[1].1 + terms[2].1 + t[r];
         }
-        let size = (0..3).fold(0.0f64, |m, a| {
-            m.max(lo[a].abs()).max(hi[a].abs()).max(hi[a] - lo[a])
-        });
-        let pad = BOX_PADDING * size;
-        let down = |x: f64| {
-            let y = x as f32;
-            if y as f64 > x { y.next_down() } else { y }
-        };
-        let up = |x: f64| {
-            let y = x as f32;
-            if (y as f64) < x { y.next_up() } else { y }
-        };
-        let b = [
-            Vec3::from_array(lo.map(|x| down(x - pad))),
-            Vec3::from_array(hi.map(|x| up(x + pad))),
-        ];
-        (b[0].is_finite() && b[1].is_finite()).then_some(b)
+        padded_box(lo, hi)
     }
 
     /// Whether `world` contains the image of `bounds` ([`Self::corners64`], compared in f64):
@@ -230,4 +214,27 @@ impl Affine {
             .iter()
             .all(|c| (0..3).all(|a| c[a] >= world[0][a] as f64 && c[a] <= world[1][a] as f64))
     }
+}
+
+/// The f32 box the host stores for the f64 box `lo`..`hi` (an instance's image,
+/// [`Affine::world_box`]): grown by [`BOX_PADDING`] of its largest magnitude and extent, then
+/// rounded outward. `None` if it is not finite in f32.
+pub fn padded_box(lo: D3, hi: D3) -> Option<[Vec3; 2]> {
+    let size = (0..3).fold(0.0f64, |m, a| {
+        m.max(lo[a].abs()).max(hi[a].abs()).max(hi[a] - lo[a])
+    });
+    let pad = BOX_PADDING * size;
+    let down = |x: f64| {
+        let y = x as f32;
+        if y as f64 > x { y.next_down() } else { y }
+    };
+    let up = |x: f64| {
+        let y = x as f32;
+        if (y as f64) < x { y.next_up() } else { y }
+    };
+    let b = [
+        Vec3::from_array(lo.map(|x| down(x - pad))),
+        Vec3::from_array(hi.map(|x| up(x + pad))),
+    ];
+    (b[0].is_finite() && b[1].is_finite()).then_some(b)
 }
