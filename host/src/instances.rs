@@ -66,10 +66,9 @@ pub struct Placement {
     pub user_id: u32,
 }
 
-/// An instance on its way into the tree: its world box, its centre, its record.
+/// An instance on its way into the tree: its world box and its record.
 struct Item {
     bounds: [Vec3; 2],
-    centre: Vec3,
     record: [u32; RECORD_WORDS],
 }
 
@@ -117,7 +116,9 @@ pub fn top_level(bottoms: &[Scene], placements: &[Placement]) -> Result<Vec<u32>
         .iter()
         .enumerate()
         .map(|(at, it)| Key {
-            centre: it.centre.to_array().map(ordered),
+            centre: ((it.bounds[0] + it.bounds[1]) * 0.5)
+                .to_array()
+                .map(ordered),
             at: at as u32,
         })
         .collect();
@@ -165,11 +166,7 @@ fn item(bottoms: &[Scene], i: usize, p: &Placement) -> Result<Item, String> {
     r[record::BOTTOM] = p.bottom;
     r[record::USER_ID] = p.user_id;
     r[record::BOX..record::BOX + 6].copy_from_slice(&box_words(bounds));
-    Ok(Item {
-        bounds,
-        centre: (bounds[0] + bounds[1]) * 0.5,
-        record: r,
-    })
+    Ok(Item { bounds, record: r })
 }
 
 fn box_words(b: [Vec3; 2]) -> [u32; 6] {
