@@ -6,7 +6,7 @@
 use glam::Vec3;
 use kdray::Geometry;
 use kdray::build::{BuildParams, build};
-use kdray::instances::{Placement, top_level};
+use kdray::instances::{Moved, Placement, TopLevel, top_level};
 use kdray_core::instance::{Affine, InstancedScene};
 use kdray_core::{Ray, Scene};
 use std::time::Instant;
@@ -94,6 +94,13 @@ fn main() -> Result<(), Box<dyn core::error::Error>> {
         let moved: Vec<Placement> = (0..n).map(|k| placement(k, frame)).collect();
         core::hint::black_box(top_level(&bottoms, &moved).unwrap());
     });
+    // The same instances moved again: the tree refitted, not rebuilt (`TopLevel::move_to`).
+    let mut kept = TopLevel::build(&bottoms, &placements)?;
+    let refit_ms = median_ms(|| {
+        frame += 0.01;
+        let moved: Vec<Placement> = (0..n).map(|k| placement(k, frame)).collect();
+        assert_eq!(kept.move_to(&bottoms, &moved).unwrap(), Moved::Refitted);
+    });
     let validate_ms = median_ms(|| {
         core::hint::black_box(InstancedScene::from_words(&words, &bottoms).unwrap());
     });
@@ -102,8 +109,9 @@ fn main() -> Result<(), Box<dyn core::error::Error>> {
         core::hint::black_box(InstancedScene::from_built_words(&words, &bottoms).unwrap());
     });
     println!(
-        "top level: build {build_ms:.2} ms (placements included), validate {validate_ms:.2} ms \
-         (words from outside), open {open_ms:.2} ms (words just built)"
+        "top level: build {build_ms:.2} ms or refit {refit_ms:.2} ms (placements included), \
+         validate {validate_ms:.2} ms (words from outside), open {open_ms:.2} ms (words just \
+         built)"
     );
     // Rays down onto the field from above, slightly slanted.
     let dir = Vec3::new(0.1, 0.05, -1.0).normalize();

@@ -7,7 +7,9 @@
 //! never its tree, and runs in `O(n log n)` for `n` instances (the tree over them is split at the
 //! median of the longest axis of its instances' centres, down to leaves of [`LEAF_MAX`]), so a
 //! frame that moves instances pays for that and not for the meshes
-//! (`cargo run --release -p kdray --example instances` times it for 10,000 instances).
+//! (`cargo run --release -p kdray --example instances` times it for 10,000 instances). The same
+//! instances moved again refit the tree instead of rebuilding it ([`TopLevel::move_to`],
+//! `moving.rs`).
 //!
 //! ```
 //! use kdray::Geometry;
@@ -42,6 +44,9 @@ use kdray_core::instance::{
     header, node, record,
 };
 use kdray_core::traverse::Mode;
+
+mod moving;
+pub use moving::{Moved, REBUILD_GROWTH, TopLevel};
 
 /// The closest hit of each of `rays` through `scene` in `mode`, into `hits` (as many): the
 /// two-level single-ray walk ([`InstancedScene::intersect_in`]), what `kdray trace` runs on a
@@ -102,6 +107,14 @@ fn unordered(k: u32) -> f32 {
 /// finite or not invertible ([`Affine::inverse`]), or one that carries its bottom scene's box
 /// beyond f32: a message naming the placement.
 pub fn top_level(bottoms: &[Scene], placements: &[Placement]) -> Result<Vec<u32>, String> {
+    let (mut words, _) = built(bottoms, placements)?;
+    seal(&mut words);
+    Ok(words)
+}
+
+/// [`top_level`]'s words, not yet sealed (the checksum words zero), and, record by record, the
+/// index of the placement it holds.
+fn built(bottoms: &[Scene], placements: &[Placement]) -> Result<(Vec<u32>, Vec<u32>), String> {
     if placements.is_empty() {
         return Err("a top level needs at least one instance".into());
     }
@@ -124,7 +137,8 @@ pub fn top_level(bottoms: &[Scene], placements: &[Placement]) -> Result<Vec<u32>
         .collect();
     let mut nodes = Vec::with_capacity(2 * placements.len() / LEAF_MAX + 1);
     let mut records = Vec::with_capacity(placements.len());
-    let (depth, _) = subtree(&items, &mut keys, &mut nodes, &mut records, 0);
+    let mut order = Vec::with_capacity(placements.len());
+    let (depth, _) = subtree(&items, &mut keys, &mut nodes, &mut records, &mut order, 0);
     let total = HEADER_WORDS + NODE_WORDS * nodes.len() + RECORD_WORDS * records.len();
     let mut words = vec![0u32; HEADER_WORDS];
     words.reserve(total - HEADER_WORDS);
@@ -139,8 +153,7 @@ pub fn top_level(bottoms: &[Scene], placements: &[Placement]) -> Result<Vec<u32>
     words[header::BOUNDS..header::BOUNDS + 6].copy_from_slice(&nodes[0][node::BOX..node::BOX + 6]);
     words.extend(nodes.iter().flatten());
     words.extend(records.iter().flatten());
-    seal(&mut words);
-    Ok(words)
+    Ok((words, order))
 }
 
 /// Placement `i`'s record and box.
@@ -185,6 +198,7 @@ fn subtree(
     keys: &mut [Key],
     nodes: &mut Vec<[u32; NODE_WORDS]>,
     records: &mut Vec<[u32; RECORD_WORDS]>,
+    order: &mut Vec<u32>,
     depth: u32,
 ) -> (u32, [Vec3; 2]) {
     let at = nodes.len();
@@ -200,6 +214,7 @@ fn subtree(
         nd[node::COUNT] = keys.len() as u32;
         nodes.push(nd);
         records.extend(keys.iter().map(|k| items[k.at as usize].record));
+        order.extend(keys.iter().map(|k| k.at));
         return (depth, [lo, hi]);
     }
     nodes.push(nd);
@@ -214,9 +229,9 @@ fn subtree(
     let mid = keys.len() / 2;
     keys.select_nth_unstable_by_key(mid, |k| k.centre[axis]);
     let (below, above) = keys.split_at_mut(mid);
-    let (d0, b0) = subtree(items, below, nodes, records, depth + 1);
+    let (d0, b0) = subtree(items, below, nodes, records, order, depth + 1);
     nodes[at][node::CHILD_OR_FIRST] = nodes.len() as u32;
-    let (d1, b1) = subtree(items, above, nodes, records, depth + 1);
+    let (d1, b1) = subtree(items, above, nodes, records, order, depth + 1);
     let b = [b0[0].min(b1[0]), b0[1].max(b1[1])];
     nodes[at][node::BOX..node::BOX + 6].copy_from_slice(&box_words(b));
     (d0.max(d1), b)
