@@ -179,8 +179,9 @@ class Instances:
     # -- the top level --------------------------------------------------------------------------
 
     @staticmethod
-    def _build(meshes: Dict[int, Scene], transforms: Dict[int, np.ndarray]) -> Any:
-        """A new top level over ``meshes`` placed by ``transforms`` (``None``: no placement)."""
+    def _arrays(meshes: Dict[int, Scene], transforms: Dict[int, np.ndarray]) -> Any:
+        """``(trees, bottom, transforms (n, 12), geometry, instance)`` of every placement, in
+        the order of the geometry ids; ``None`` where nothing is placed."""
         ids = sorted(g for g in meshes if len(transforms[g]))
         if not ids:
             return None
@@ -199,13 +200,14 @@ class Instances:
             mats.append(m.reshape(-1, 12))
             geometry.append(np.full(len(m), g, dtype=np.int64))
             instance.append(np.arange(len(m), dtype=np.int64))
-        return _kdray.Top.build(
-            trees,
-            np.concatenate(bottom),
-            np.ascontiguousarray(np.concatenate(mats)),
-            np.concatenate(geometry),
-            np.concatenate(instance),
-        )
+        return (trees, np.concatenate(bottom), np.ascontiguousarray(np.concatenate(mats)),
+                np.concatenate(geometry), np.concatenate(instance))
+
+    @staticmethod
+    def _build(meshes: Dict[int, Scene], transforms: Dict[int, np.ndarray]) -> Any:
+        """A new top level over ``meshes`` placed by ``transforms`` (``None``: no placement)."""
+        arrays = Instances._arrays(meshes, transforms)
+        return None if arrays is None else _kdray.Top.build(*arrays)
 
     def _mergeable(self, meshes: Dict[int, Scene], transforms: Dict[int, np.ndarray]) -> bool:
         """Whether ``merge`` applies: every mesh placed once, by the identity, no origin."""
@@ -284,11 +286,17 @@ class Instances:
 
     def set_transforms(self, geometry_id: int, transforms: Any) -> None:
         """Places mesh ``geometry_id`` anew (``transforms`` as in the constructor; the number of
-        placements may change): rebuilds the top level alone. On an error nothing changes."""
+        placements may change): rebuilds the top level alone, or, as many placements moved,
+        refits it (the same tree with its boxes redrawn; built anew once refits have loosened
+        it by half). On an error nothing changes."""
         g = self._geometry(geometry_id)
         trans = dict(self._transforms)
         trans[g] = _placements(transforms, g)
-        self._top = self._build(self._meshes, trans)
+        top = self._top
+        if top is not None and len(trans[g]) == len(self._transforms[g]):
+            self._top = top.moved(self._arrays(self._meshes, trans)[2])
+        else:
+            self._top = self._build(self._meshes, trans)
         self._transforms = trans
 
     def transforms(self, geometry_id: int) -> np.ndarray:

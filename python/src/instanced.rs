@@ -4,7 +4,8 @@
 //!
 //! A [`Top`] is immutable: the Python layer makes a new one whenever placements change or a mesh
 //! is added or removed, which builds the top level alone (`O(n log n)` in the instances) and
-//! shares every bottom tree as it is. Each placement's record carries its index in the arrays
+//! shares every bottom tree as it is; the same placements moved make theirs by a refit of this
+//! one's (`Top::moved`, `kdray::instances::TopLevel::move_to`). Each placement's record carries its index in the arrays
 //! given here as its user id, so a hit names the geometry and the placement the Python layer
 //! gave for it.
 //!
@@ -18,7 +19,7 @@ use crate::rays::{Batch, CHUNK, for_chunks};
 use crate::run::{self, Cancel, cancelled};
 use crate::stop::{self, Stop};
 use crate::{RayArgs, mode, slice, value_error};
-use kdray::instances::{Placement, top_level};
+use kdray::instances::{Placement, TopLevel};
 use kdray_core::Scene;
 use kdray_core::instance::{Affine, InstanceHit, InstancedScene};
 use kdray_core::traverse::Mode;
@@ -30,32 +31,81 @@ use self_cell::self_cell;
 /// What a top level holds: its words, the bottom scenes it indexes and the trees that own
 /// their words.
 struct Parts {
-    words: Vec<u32>,
-    /// Views of `trees`' words (see [`Parts::new`] for their lifetime).
+    top: TopLevel,
+    /// Views of `trees`' words (see [`views`] for their lifetime).
     scenes: Vec<Scene<'static>>,
     /// Held, never read: they keep the words `scenes` view alive.
     _trees: Vec<Py<Tree>>,
 }
 
+/// Views of `trees`' words, for [`Parts`] that keep `trees`.
+fn views(trees: &[Py<Tree>]) -> Vec<Scene<'static>> {
+    trees
+        .iter()
+        .map(|t| {
+            let scene: Scene<'_> = *t.get().owned.scene();
+            // SAFETY: the scene borrows the words of a frozen `Tree`, which never moves nor
+            // changes them while it lives, and the `Parts` these views go into keep each tree
+            // alive as long as themselves (the scenes are dropped before the trees, and never
+            // handed out with a longer lifetime than `&self`'s: `Levels` borrows them).
+            unsafe { std::mem::transmute::<Scene<'_>, Scene<'static>>(scene) }
+        })
+        .collect()
+}
+
 impl Parts {
-    fn new(trees: Vec<Py<Tree>>, words: Vec<u32>) -> Self {
-        let scenes = trees
-            .iter()
-            .map(|t| {
-                let scene: Scene<'_> = *t.get().owned.scene();
-                // SAFETY: the scene borrows the words of a frozen `Tree`, which never moves nor
-                // changes them while it lives, and `trees` keeps each tree alive as long as
-                // these parts (the scenes are dropped before the trees, and never handed out
-                // with a longer lifetime than `&self`'s: `Levels` borrows them).
-                unsafe { std::mem::transmute::<Scene<'_>, Scene<'static>>(scene) }
-            })
-            .collect();
-        Self {
-            words,
-            scenes,
-            _trees: trees,
-        }
+    /// A view of the same trees (for a top level that places them anew).
+    fn trees(&self, py: Python<'_>) -> Vec<Py<Tree>> {
+        self._trees.iter().map(|t| t.clone_ref(py)).collect()
     }
+}
+
+/// The message for a placement that [`TopLevel`] refused (`refused`, naming its index): the
+/// first placement that fails a check, named by its geometry and instance, and why.
+fn explain(
+    scenes: &[Scene],
+    placements: &[Placement],
+    geometry: &[i64],
+    instance: &[i64],
+    refused: String,
+) -> String {
+    placements
+        .iter()
+        .enumerate()
+        .find_map(|(k, p)| {
+            let name = || format!("geometry {}, instance {}", geometry[k], instance[k]);
+            let Some(scene) = scenes.get(p.bottom as usize) else {
+                return Some(format!("{}: no such mesh", name()));
+            };
+            if !p.transform.is_finite() {
+                return Some(format!("{}: the transform is not finite", name()));
+            }
+            if p.transform.inverse().is_none() {
+                return Some(format!(
+                    "{}: the transform is singular (or nearly: its rows are almost dependent), so \
+                     it has no inverse",
+                    name()
+                ));
+            }
+            p.transform.world_box(scene.bounds()).is_none().then(|| {
+                format!(
+                    "{}: the transform carries the mesh beyond float32's range",
+                    name()
+                )
+            })
+        })
+        .unwrap_or(refused)
+}
+
+/// Placement `k` of `bottom` and `transforms` (`(n, 12)`), its user id `k`.
+fn placements(bottom: &[u32], transforms: &[f32]) -> Vec<Placement> {
+    (0..bottom.len())
+        .map(|k| Placement {
+            bottom: bottom[k],
+            transform: affine(transforms, k),
+            user_id: k as u32,
+        })
+        .collect()
 }
 
 type Walk<'a> = InstancedScene<'a, 'a>;
@@ -73,7 +123,9 @@ self_cell!(
 #[pyclass(frozen, module = "kdray._kdray")]
 pub struct Top {
     levels: Levels,
-    /// Per placement (the records' user ids): the Python layer's geometry and placement ids.
+    /// Per placement (the records' user ids): its bottom scene, and the Python layer's geometry
+    /// and placement ids.
+    bottom: Vec<u32>,
     geometry: Vec<i64>,
     instance: Vec<i64>,
 }
@@ -112,6 +164,31 @@ fn affine(transforms: &[f32], i: usize) -> Affine {
 }
 
 impl Top {
+    /// The top level of `parts`, just built or refitted here: opened as the builder's own
+    /// words (the tree's shape and the bottom indices checked, not the checksum and the records'
+    /// f64 checks).
+    fn open(
+        parts: Parts,
+        bottom: Vec<u32>,
+        geometry: Vec<i64>,
+        instance: Vec<i64>,
+    ) -> PyResult<Self> {
+        let levels = Levels::try_new(parts, |p| {
+            InstancedScene::from_built_words(p.top.built_words(), &p.scenes)
+        })
+        .map_err(|e| {
+            value_error(format!(
+                "the top level does not validate ({e}): please report"
+            ))
+        })?;
+        Ok(Self {
+            levels,
+            bottom,
+            geometry,
+            instance,
+        })
+    }
+
     fn walk(&self) -> &Walk<'_> {
         self.levels.borrow_dependent()
     }
@@ -221,64 +298,63 @@ impl Top {
         if u32::try_from(n).is_err() {
             return Err(value_error(format!("{n} instances: at most 2^32 - 1")));
         }
-        let parts = Parts::new(trees, Vec::new());
-        let words = py.detach(|| -> Result<Vec<u32>, String> {
-            let placements: Vec<Placement> = (0..n)
-                .map(|k| Placement {
-                    bottom: b[k],
-                    transform: affine(m, k),
-                    user_id: k as u32,
-                })
-                .collect();
+        let scenes = views(&trees);
+        let top = py.detach(|| {
+            let placed = placements(b, m);
             // The checks run again only when the build refuses a placement, to name it by its
             // geometry and instance and say why (a frame of 10,000 placements that all pass
-            // pays for their inverses and boxes once, in `top_level`).
-            top_level(&parts.scenes, &placements).map_err(|refused| {
-                placements
-                    .iter()
-                    .enumerate()
-                    .find_map(|(k, p)| {
-                        let name = || format!("geometry {}, instance {}", g[k], i[k]);
-                        let Some(scene) = parts.scenes.get(p.bottom as usize) else {
-                            return Some(format!("{}: no such mesh", name()));
-                        };
-                        if !p.transform.is_finite() {
-                            return Some(format!("{}: the transform is not finite", name()));
-                        }
-                        if p.transform.inverse().is_none() {
-                            return Some(format!(
-                                "{}: the transform is singular (or nearly: its rows are almost \
-                                 dependent), so it has no inverse",
-                                name()
-                            ));
-                        }
-                        p.transform.world_box(scene.bounds()).is_none().then(|| {
-                            format!(
-                                "{}: the transform carries the mesh beyond float32's range",
-                                name()
-                            )
-                        })
-                    })
-                    .unwrap_or(refused)
-            })
+            // pays for their inverses and boxes once, in the build).
+            TopLevel::build(&scenes, &placed)
+                .map_err(|refused| explain(&scenes, &placed, g, i, refused))
         });
-        let words = words.map_err(value_error)?;
-        let parts = Parts { words, ..parts };
-        // Built just now by `top_level`: opened as the builder's own words (the tree's shape and
-        // the bottom indices checked, not the checksum and the records' f64 checks).
-        let levels = Levels::try_new(parts, |p| {
-            InstancedScene::from_built_words(&p.words, &p.scenes)
-        })
-        .map_err(|e| {
-            value_error(format!(
-                "the top level does not validate ({e}): please report"
-            ))
-        })?;
-        Ok(Self {
-            levels,
-            geometry: g.to_vec(),
-            instance: i.to_vec(),
-        })
+        let parts = Parts {
+            top: top.map_err(value_error)?,
+            scenes,
+            _trees: trees,
+        };
+        Self::open(parts, b.to_vec(), g.to_vec(), i.to_vec())
+    }
+
+    /// This top level with its placements moved to `transforms` (`(n, 12)` float32, as many
+    /// rows as placements, the same order): the tree refitted, or built anew once refits have
+    /// loosened it (`TopLevel::move_to`); the same trees and ids. This one is left as it is.
+    fn moved(&self, py: Python<'_>, transforms: PyReadonlyArray2<'_, f32>) -> PyResult<Self> {
+        let m = slice(&transforms, "transforms")?;
+        if m.len() != 12 * self.bottom.len() {
+            return Err(value_error(format!(
+                "{} transforms for {} placements",
+                m.len() / 12,
+                self.bottom.len()
+            )));
+        }
+        let parts = self.levels.borrow_owner();
+        let top = py.detach(|| {
+            let placed = placements(&self.bottom, m);
+            let mut top = parts.top.clone();
+            top.move_to(&parts.scenes, &placed)
+                .map(|_| top)
+                .map_err(|refused| {
+                    explain(
+                        &parts.scenes,
+                        &placed,
+                        &self.geometry,
+                        &self.instance,
+                        refused,
+                    )
+                })
+        });
+        let trees = parts.trees(py);
+        let parts = Parts {
+            top: top.map_err(value_error)?,
+            scenes: views(&trees),
+            _trees: trees,
+        };
+        Self::open(
+            parts,
+            self.bottom.clone(),
+            self.geometry.clone(),
+            self.instance.clone(),
+        )
     }
 
     /// Counts, bounds and sizes of the top level.
@@ -290,7 +366,10 @@ impl Top {
         d.set_item("nodes", walk.node_count())?;
         d.set_item("depth", walk.depth())?;
         d.set_item("bounds", (lo.to_array(), hi.to_array()))?;
-        d.set_item("bytes", self.levels.borrow_owner().words.len() * 4)?;
+        d.set_item(
+            "bytes",
+            self.levels.borrow_owner().top.built_words().len() * 4,
+        )?;
         Ok(d)
     }
 

@@ -121,6 +121,41 @@ def test_bad_transforms_are_value_errors_naming_the_instance(transform, message)
     assert scene.raycast((0.1, 0.1, 5), (0, 0, -1))[4] in (0, 1)
 
 
+def test_moving_every_placement_refits_and_answers_as_a_scene_built_afresh(rng):
+    """The same placements moved (set_transforms with as many) refit the top level: the same
+    answers as a scene built afresh with the new placements, frame after frame; a bad transform
+    then is refused naming it, and changes nothing."""
+    mesh, other = random_mesh(rng, n_tris=60), random_mesh(rng, n_tris=40)
+    # 12 x 12 placements, apart (the random meshes fit in 2 units), so no two tie on a ray.
+    grid = [(x, y) for x in range(12) for y in range(12)]
+
+    def field(frame):
+        m = np.stack([shifted(3.0 * x + 0.1 * frame, 3.0 * y, 0.05 * frame * x) for x, y in grid])
+        turn = 0.2 * frame
+        m[:, 0, :2] = [np.cos(turn), -np.sin(turn)]
+        m[:, 1, :2] = [np.sin(turn), np.cos(turn)]
+        return m
+
+    o = np.column_stack([rng.uniform(-2, 36, 5000), rng.uniform(-2, 36, 5000),
+                         np.full(5000, 6.0)]).astype(np.float32)
+    d = np.tile(np.float32([0.05, -0.03, -1.0]), (5000, 1))
+    scene = kdray.Instances([other, mesh], [shifted(-5), field(0)])
+    for frame in range(1, 4):
+        scene.set_transforms(1, field(frame))
+        fresh = kdray.Instances([other, mesh], [shifted(-5), field(frame)])
+        got = scene.intersect(o, d)
+        assert same(got, fresh.intersect(o, d))
+        assert (got.geometry_id == 1).sum() > 200
+        assert np.array_equal(scene.occluded(o, d), fresh.occluded(o, d))
+    before = scene.intersect(o, d)
+    bad = field(5)
+    bad[37, :3, :3] = 0.0
+    with pytest.raises(ValueError, match="geometry 1, instance 37: the transform is singular"):
+        scene.set_transforms(1, bad)
+    assert same(scene.intersect(o, d), before)
+    np.testing.assert_array_equal(scene.transforms(1)[:, :3], field(3)[:, :3].astype(np.float32))
+
+
 def test_bad_arguments(rays):
     mesh = tetrahedron()
     with pytest.raises(TypeError, match="must hold numbers"):
