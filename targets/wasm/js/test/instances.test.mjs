@@ -183,7 +183,7 @@ test('translations exact in f32: the same answers as the merged mesh, bit for bi
   for (const s of scenes) s.dispose();
 });
 
-test('moving instances rebuilds the top level; a scale of 0 places nothing', async () => {
+test('moving instances places them anew; a scale of 0 places nothing', async () => {
   const scene = await Scene.build(new Float32Array([0, 0, 0, 1, 0, 0, 0, 1, 0]));
   const world = new InstancedScene([scene]);
   const at = (z) => [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, z];
@@ -196,6 +196,47 @@ test('moving instances rebuilds the top level; a scale of 0 places nothing', asy
   assert.equal(world.raycast([0.2, 0.2, 10], [0, 0, -1]).id, 1, 'ids default to the index');
   // A direction of length 2: distances in its lengths.
   assert.equal(world.raycast([0.2, 0.2, 10], [0, 0, -2]).distance, 4);
+  world.dispose();
+  scene.dispose();
+});
+
+test('moving the same instances (a refit) answers as a top level placed afresh, frame after frame', async () => {
+  const r = rng(42);
+  const scene = await Scene.build(soup(120, 1, 0.5));
+  // 15 × 15 instances a grid apart (the soup fits in a unit cube), turned and moved each frame.
+  const field = (frame) => {
+    const out = [];
+    for (let k = 0; k < 225; k++) {
+      const a = 0.3 * frame + 0.01 * k, c = Math.cos(a), s = Math.sin(a);
+      out.push(c, -s, 0, 2.5 * (k % 15) + 0.1 * frame, s, c, 0, 2.5 * Math.floor(k / 15), 0, 0, 1, 0.05 * frame * (k % 7));
+    }
+    return out;
+  };
+  const rs = new Float32Array(8 * 3000);
+  for (let i = 0; i < 3000; i++) rs.set([38 * r() - 1, 38 * r() - 1, 5, 0.05, -0.03, -1, 0, Infinity], 8 * i);
+  const meshes = new Array(225).fill(0);
+  const world = new InstancedScene([scene]);
+  world.setInstances({ meshes, transforms: field(0) });
+  let hits;
+  for (let frame = 1; frame <= 3; frame++) {
+    world.setInstances({ meshes, transforms: field(frame) });
+    const fresh = new InstancedScene([scene]);
+    fresh.setInstances({ meshes, transforms: field(frame) });
+    const [a, b] = [world.raycastMany(rs), fresh.raycastMany(rs)];
+    assert.deepEqual(new Uint32Array(a.buffer), new Uint32Array(b.buffer), `frame ${frame}: the same bits`);
+    hits = a.filter((_, i) => i % 5 === 0 && Number.isFinite(a[i])).length;
+    fresh.dispose();
+  }
+  assert.ok(hits > 300, `${hits} hits`);
+  // A refused frame leaves the last one placed.
+  const before = world.raycastMany(rs);
+  const bad = field(4);
+  bad[12 * 9 + 5] = NaN;
+  assert.throws(() => world.setInstances({ meshes, transforms: bad }), /transforms\[113\] is NaN \(instance 9\)/);
+  bad[12 * 9 + 5] = field(4)[12 * 9 + 5];
+  bad[12 * 9 + 3] = 3.4028234e38; // finite, but the mesh's box moved there is not: refused by the refit
+  assert.throws(() => world.setInstances({ meshes, transforms: bad }), /instance 9: transform carries the mesh beyond f32/);
+  assert.deepEqual(world.raycastMany(rs), before);
   world.dispose();
   scene.dispose();
 });

@@ -2,9 +2,11 @@
 //! adapter (`src/hierarchy.js`). A top level holds the handles of the bottom scenes it places
 //! (each a scene of [`crate::kdj_build`] or [`crate::kdj_load`], pinned so that disposing one
 //! from JavaScript while a top level uses it frees it only when that top level goes), and the
-//! words of the top level that the host's [`kdray::instances::top_level`] builds and the core's
-//! [`InstancedScene::from_words`] validates. Placing instances again ([`kdj_top_place`])
-//! rebuilds the top level alone; the bottom scenes stay as they are.
+//! top level that the host's [`TopLevel`] builds and the core's
+//! [`InstancedScene::from_built_words`] opens. Placing instances again ([`kdj_top_place`])
+//! refits the top level when as many are placed as before ([`TopLevel::move_to`]; built anew
+//! once refits have loosened it) and otherwise builds it anew; the bottom scenes stay as they
+//! are.
 //!
 //! Placements are 14 words each: the object → world transform as 12 f32 (a 3×4 row-major
 //! matrix, the core's [`Affine`]), the bottom scene's index in the list given to
@@ -15,21 +17,22 @@
 use crate::memory::try_reserve;
 use crate::{NO_SCENE, State, bad, disjoint, mode, unit, with_state};
 use glam::Vec3;
-use kdray::instances::{Placement, top_level};
+use kdray::instances::{Placement, TopLevel};
 use kdray_core::format::Scene;
 use kdray_core::instance::{Affine, InstancedScene};
 
 /// Words of one placement.
 const PLACEMENT_WORDS: usize = 14;
 
-/// A top level: the pinned bottom scenes' handles, copies of their views, and the validated top
-/// level over them (`None` while nothing is placed). The words and the bottoms' views are leaked
-/// into `&'static` slices so that the validated [`InstancedScene`] can be kept (validation is a
-/// pass over every word), and taken back in `Drop`.
+/// A top level: the pinned bottom scenes' handles, copies of their views, the top level's words
+/// and the opened top level over them (both `None` while nothing is placed). The bottoms' views
+/// are leaked into a `&'static` slice, taken back in `Drop`; the opened top level views the
+/// words of `level` as `&'static`, so it is dropped before `level` changes or goes
+/// ([`Top::clear`], [`Top::open`]).
 pub struct Top {
     handles: Vec<u32>,
     bottoms: *mut [Scene<'static>],
-    words: Option<*mut [u32]>,
+    level: Option<TopLevel>,
     top: Option<InstancedScene<'static, 'static>>,
 }
 
@@ -39,13 +42,26 @@ impl Top {
         unsafe { &*self.bottoms }
     }
 
-    /// Drops the top level (the only view of its words) and frees them.
+    /// Drops the top level (the only view of its words), then its words.
     fn clear(&mut self) {
         self.top = None;
-        if let Some(w) = self.words.take() {
-            // SAFETY: leaked in `place`, and the top level that viewed it is gone.
-            drop(unsafe { Box::from_raw(w) });
-        }
+        self.level = None;
+    }
+
+    /// Opens the words of `level` (built or refitted by this module just now: opened as the
+    /// builder's own words, the tree's shape and the bottom indices checked, not the checksum
+    /// and the records' f64 checks) and keeps both.
+    fn open(&mut self, level: TopLevel) -> Result<(), (i32, String)> {
+        self.top = None;
+        let level = self.level.insert(level);
+        let words: *const [u32] = level.built_words();
+        // SAFETY: the words live in `self.level`, which is neither changed nor dropped while
+        // `self.top` views them: `clear` and the next `open` drop the view first.
+        let shared: &'static [u32] = unsafe { &*words };
+        let top = InstancedScene::from_built_words(shared, self.bottoms())
+            .map_err(|e| bad(format!("internal: the top level was refused: {e}")))?;
+        self.top = Some(top);
+        Ok(())
     }
 
     /// Builds the top level of `placements`; returns how many were placed (the rest were not
@@ -53,7 +69,7 @@ impl Top {
     ///
     /// # Errors
     /// A transform that is not finite or a mesh index out of range (naming the placement), or
-    /// the host's refusal ([`top_level`]); the top level placed before is then kept.
+    /// the host's refusal ([`TopLevel`]); the top level placed before is then kept.
     fn place(&mut self, placements: &[[u32; PLACEMENT_WORDS]]) -> Result<i32, (i32, String)> {
         let bottoms = self.bottoms();
         let mut list = Vec::new();
@@ -85,19 +101,21 @@ impl Top {
             self.clear();
             return Ok(0);
         }
-        // The old top level stays until the new one is built (a refusal keeps it).
-        let words = top_level(bottoms, &list).map_err(bad)?;
-        self.clear();
-        let words: &'static mut [u32] = Box::leak(words.into_boxed_slice());
-        let ptr: *mut [u32] = words;
-        // SAFETY: just leaked; freed by `clear`, which first drops the view.
-        let shared: &'static [u32] = unsafe { &*ptr };
-        self.words = Some(ptr);
-        // Built by this module just now: opened as the builder's own words (the tree's shape and
-        // the bottom indices checked, not the checksum and the records' f64 checks).
-        let top = InstancedScene::from_built_words(shared, bottoms)
-            .map_err(|e| bad(format!("internal: the top level was refused: {e}")))?;
-        self.top = Some(top);
+        // As many placements as before refit the top level in place (a refusal leaves its words
+        // as they were, opened again); others build a new one, the old kept until it is made.
+        match self.level.take() {
+            Some(mut level) if level.order().len() == list.len() => {
+                self.top = None; // the view goes before its words change
+                let moved = level.move_to(bottoms, &list);
+                self.open(level)?;
+                moved.map_err(bad)?;
+            }
+            old => {
+                self.level = old;
+                let level = TopLevel::build(bottoms, &list).map_err(bad)?;
+                self.open(level)?;
+            }
+        }
         Ok(list.len() as i32)
     }
 }
@@ -135,7 +153,7 @@ impl State {
         let top = Top {
             handles: handles.to_vec(),
             bottoms,
-            words: None,
+            level: None,
             top: None,
         };
         let slot = match self.tops.iter().position(Option::is_none) {
