@@ -6,7 +6,8 @@
 //! The top level refers to its bottom scenes by index into the slice the caller passes, so that
 //! no copy of a mesh is stored per instance and the core needs no allocation: a firmware keeps
 //! the bottom scenes' words and the top level's in flash, side by side. Moving instances rebuilds
-//! the top level alone (the host's `kdray::instances`); the bottom scenes stay as they are.
+//! or refits the top level alone (the host's `kdray::instances`); the bottom scenes stay as they
+//! are.
 //!
 //! Compiled with the core's `instances` feature (on by default; the firmware and WASM builds,
 //! which take no default features, leave it out), so that a program without instances links none
