@@ -59,10 +59,19 @@ fn load(name: &str) -> Res<Geometry> {
 /// A transform taking `geom`'s box to a box of largest side `size` whose centre is `at`, turned
 /// by `angle` about y.
 fn place(geom: &Geometry, size: f32, angle: f32, at: Vec3) -> Affine {
-    let (lo, hi) = geom.triangles.iter().flatten().fold(
+    place_box(bounds(geom), size, angle, at)
+}
+
+/// The box of `geom`'s vertices.
+fn bounds(geom: &Geometry) -> (Vec3, Vec3) {
+    geom.triangles.iter().flatten().fold(
         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
         |(lo, hi), &v| (lo.min(v), hi.max(v)),
-    );
+    )
+}
+
+/// [`place`] for a mesh of box `lo`..`hi`.
+fn place_box((lo, hi): (Vec3, Vec3), size: f32, angle: f32, at: Vec3) -> Affine {
     let s = size / (hi - lo).max_element();
     let c = 0.5 * (lo + hi);
     let (sin, cos) = angle.sin_cos();
@@ -297,6 +306,7 @@ fn scene_rows(s: &Both, size: u32, repeat: usize) -> Res<()> {
 fn moving(bunny: &Geometry, repeat: usize) -> Res<()> {
     let mesh = words(bunny, "bunny")?;
     let bottoms = [Scene::from_words(&mesh).map_err(|e| e.to_string())?];
+    let box_ = bounds(bunny);
     let field = |frame: f32| -> Vec<Placement> {
         (0..10_000u32)
             .map(|k| {
@@ -307,7 +317,7 @@ fn moving(bunny: &Geometry, repeat: usize) -> Res<()> {
                 );
                 Placement {
                     bottom: 0,
-                    transform: place(bunny, 1.0, 0.3 * k as f32 + frame, at),
+                    transform: place_box(box_, 1.0, 0.3 * k as f32 + frame, at),
                     user_id: k,
                 }
             })

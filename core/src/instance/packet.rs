@@ -95,6 +95,8 @@ struct PacketSlabs<L> {
     inv: [L; 3],
     /// Lanes whose component is `±0`.
     zero: [L; 3],
+    /// Whether any lane has a `±0` component (else the origin tests of `zero` are skipped).
+    any_zero: bool,
     /// Lanes whose component is not zero but its reciprocal overflows (a subnormal).
     divide: [L; 3],
     any_divide: bool,
@@ -110,11 +112,13 @@ impl<L: Lanes> PacketSlabs<L> {
         let zero = dir.map(|d| d.eq(L::splat(0.0)));
         let divide: [L; 3] = core::array::from_fn(|a| !inv[a].is_finite() & !zero[a]);
         let any_divide = (divide[0] | divide[1] | divide[2]).any();
+        let any_zero = (zero[0] | zero[1] | zero[2]).any();
         Self {
             origin,
             dir,
             inv,
             zero,
+            any_zero,
             divide,
             any_divide,
             tmin: rays.tmin,
@@ -138,12 +142,18 @@ impl<L: Lanes> PacketSlabs<L> {
                 near = self.divide[a].select((lo - o) / d, near);
                 far = self.divide[a].select((hi - o) / d, far);
             }
-            let zero = self.zero[a];
-            inside = inside & !(zero & (o.lt(lo) | o.gt(hi)));
-            let (near, far) = (
-                zero.select(-inf, near.min(far)),
-                zero.select(inf, near.max(far)),
-            );
+            // With no `±0` component in the packet, the selects below would keep `near` and
+            // `far` in every lane: skipped (the same bits).
+            let (near, far) = if self.any_zero {
+                let zero = self.zero[a];
+                inside = inside & !(zero & (o.lt(lo) | o.gt(hi)));
+                (
+                    zero.select(-inf, near.min(far)),
+                    zero.select(inf, near.max(far)),
+                )
+            } else {
+                (near.min(far), near.max(far))
+            };
             t0 = t0.max(widen_lanes(near).0);
             t1 = t1.min(widen_lanes(far).1);
         }
