@@ -115,7 +115,12 @@ impl Affine {
     /// of f32 entries cannot overflow).
     pub fn is_invertible(&self) -> bool {
         let [r0, r1, r2] = [self.row64(0), self.row64(1), self.row64(2)];
-        let det = dot(r0, cross(r1, r2));
+        self.invertible_with(r0, r1, r2, dot(r0, cross(r1, r2)))
+    }
+
+    /// [`Self::is_invertible`] given the rows in f64 and the determinant `dot(r0, r1 × r2)`.
+    #[inline(always)]
+    fn invertible_with(&self, r0: D3, r1: D3, r2: D3, det: f64) -> bool {
         // Squared, so that no square root is needed: f32 entries keep every square finite in f64.
         let bound2 = dot(r0, r0) * dot(r1, r1) * dot(r2, r2);
         self.is_finite() && det * det >= MIN_DET_RATIO * MIN_DET_RATIO * bound2 && bound2 > 0.0
@@ -125,13 +130,13 @@ impl Affine {
     /// unless [`Self::is_invertible`] and the result is finite. What the host stores beside a
     /// transform.
     pub fn inverse(&self) -> Option<Self> {
-        if !self.is_invertible() {
-            return None;
-        }
         let [r0, r1, r2] = [self.row64(0), self.row64(1), self.row64(2)];
-        let det = dot(r0, cross(r1, r2));
         // The inverse's columns are the cross products of the rows over the determinant.
         let c = [cross(r1, r2), cross(r2, r0), cross(r0, r1)];
+        let det = dot(r0, c[0]);
+        if !self.invertible_with(r0, r1, r2, det) {
+            return None;
+        }
         let t = self.translation64();
         let mut m = [0.0f32; AFFINE_WORDS];
         for r in 0..3 {
