@@ -5,9 +5,9 @@
 //! A [`Top`] is immutable: the Python layer makes a new one whenever placements change or a mesh
 //! is added or removed, which builds the top level alone (`O(n log n)` in the instances) and
 //! shares every bottom tree as it is; the same placements moved make theirs by a refit of this
-//! one's (`Top::moved`, `kdray::instances::TopLevel::move_to`). Each placement's record carries its index in the arrays
-//! given here as its user id, so a hit names the geometry and the placement the Python layer
-//! gave for it.
+//! one's (`Top::moved`, `kdray::instances::TopLevel::move_to`). Each placement's record carries
+//! its index in the arrays given here as its user id, so a hit names the geometry and the
+//! placement the Python layer gave for it.
 //!
 //! The batches trace each ray by the two-level single-ray walk
 //! (`InstancedScene::intersect_in`, `occluded_in`), the rays converted as every batch converts

@@ -65,8 +65,8 @@ impl Clone for TopLevel {
 pub enum Moved {
     /// The tree kept its shape; boxes and records were written anew.
     Refitted,
-    /// The tree was built anew: a different number of placements, or refits had loosened it
-    /// past [`REBUILD_GROWTH`].
+    /// The tree was built anew: a different number of placements, bottom scenes of other boxes,
+    /// or refits had loosened it past [`REBUILD_GROWTH`].
     Rebuilt,
 }
 

@@ -101,17 +101,16 @@ impl Top {
             self.clear();
             return Ok(0);
         }
-        // As many placements as before refit the top level in place (a refusal leaves its words
-        // as they were, opened again); others build a new one, the old kept until it is made.
+        // A placed top level moves in place (`move_to` refits it, or builds it anew for another
+        // count; a refusal leaves its words as they were, opened again); else a first build.
         match self.level.take() {
-            Some(mut level) if level.order().len() == list.len() => {
+            Some(mut level) => {
                 self.top = None; // the view goes before its words change
                 let moved = level.move_to(bottoms, &list);
                 self.open(level)?;
                 moved.map_err(bad)?;
             }
-            old => {
-                self.level = old;
+            None => {
                 let level = TopLevel::build(bottoms, &list).map_err(bad)?;
                 self.open(level)?;
             }
