@@ -72,10 +72,12 @@ const PARALLEL_MIN: usize = 2048;
 
 /// Builds the tree over `refs` inside `bounds` (the root).
 pub(super) fn build(ctx: &Ctx, mut refs: Vec<Ref>, bounds: Aabb, share: Share) -> BuildNode {
-    build_node(ctx, &mut refs, 0, bounds, 0, 0, share)
+    build_node(ctx, &mut refs, 0, bounds, 0, 0, share, None)
 }
 
-/// Builds the subtree over `stack[start..]` inside `bounds`, and truncates `stack` to `start`.
+/// Builds the subtree over `stack[start..]` inside `bounds`, and truncates `stack` to `start`;
+/// `kept`: what of the parent's bins it may keep ([`binned::Kept`]).
+#[allow(clippy::too_many_arguments)]
 fn build_node(
     ctx: &Ctx,
     stack: &mut Vec<Ref>,
@@ -84,6 +86,7 @@ fn build_node(
     depth: u32,
     bad_refines: u32,
     share: Share,
+    kept: binned::Kept,
 ) -> BuildNode {
     let n = stack.len() - start;
     let leaf = |stack: &mut Vec<Ref>| {
@@ -96,11 +99,11 @@ fn build_node(
     }
     let (parallel, fast) = (ctx.params.parallel, &ctx.params.fast);
     let refs = &stack[start..];
-    let (best, contents) = if n >= fast.bin_min {
+    let (best, contents, in_bins) = if n >= fast.bin_min {
         let bins = bins_for(n, fast.bins);
-        match binned::best_split(refs, &bounds, bins, &ctx.costs, parallel) {
-            Some((s, c)) => (Some(s), Some(c)),
-            None => (None, None),
+        match binned::best_split(refs, &bounds, bins, &ctx.costs, parallel, kept) {
+            Some((s, c, in_bins)) => (Some(s), Some(c), in_bins),
+            None => (None, None, false),
         }
     } else {
         let best = if n <= SMALL_MAX {
@@ -108,7 +111,7 @@ fn build_node(
         } else {
             exact_split(refs, &bounds, &ctx.costs)
         };
-        (best, None)
+        (best, None, false)
     };
     let Some((split, bad_refines)) = best.and_then(|s| ctx.accept(s, n, bad_refines)) else {
         return leaf(stack);
@@ -141,8 +144,8 @@ fn build_node(
         let mut a = core::mem::take(stack);
         let (below, above) = join(
             true,
-            || build_node(ctx, &mut b, 0, below_box, depth + 1, bad_refines, sb),
-            || build_node(ctx, &mut a, 0, above_box, depth + 1, bad_refines, sa),
+            || build_node(ctx, &mut b, 0, below_box, depth + 1, bad_refines, sb, None),
+            || build_node(ctx, &mut a, 0, above_box, depth + 1, bad_refines, sa, None),
         );
         return BuildNode::Interior {
             axis: split.axis as u8,
@@ -153,6 +156,9 @@ fn build_node(
     let (nb, na) =
         cut_off.unwrap_or_else(|| partition(ctx, stack, start, &split, &below_box, &above_box));
     let (sb, sa) = share.split(nb, na);
+    // After a cut-off the child holding every reference keeps this node's counts but on the
+    // split's axis: it is built right after its empty sibling (a leaf, which bins nothing).
+    let kept = (cut_off.is_some() && in_bins).then_some(split.axis);
     let below = build_node(
         ctx,
         stack,
@@ -161,8 +167,18 @@ fn build_node(
         depth + 1,
         bad_refines,
         sb,
+        kept.filter(|_| nb > 0),
     );
-    let above = build_node(ctx, stack, start, above_box, depth + 1, bad_refines, sa);
+    let above = build_node(
+        ctx,
+        stack,
+        start,
+        above_box,
+        depth + 1,
+        bad_refines,
+        sa,
+        kept.filter(|_| na > 0),
+    );
     BuildNode::Interior {
         axis: split.axis as u8,
         split: split.pos,
