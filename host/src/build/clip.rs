@@ -170,6 +170,23 @@ pub fn split_triangle(
     pos: f32,
     within: &Aabb,
 ) -> (Option<Aabb>, Option<Aabb>) {
+    // One body per axis, so that no coordinate is picked at run time (in WebAssembly a jump
+    // table at each of them).
+    match axis {
+        0 => split_on::<0>(tri, pos, within),
+        1 => split_on::<1>(tri, pos, within),
+        _ => split_on::<2>(tri, pos, within),
+    }
+}
+
+/// [`split_triangle`] on axis `AXIS`.
+#[inline]
+fn split_on<const AXIS: usize>(
+    tri: &[Vec3; 3],
+    pos: f32,
+    within: &Aabb,
+) -> (Option<Aabb>, Option<Aabb>) {
+    let axis = AXIS;
     let plane = pos as f64;
     let v = tri.map(|p| p.as_dvec3());
     let (mut lo_b, mut hi_b) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
