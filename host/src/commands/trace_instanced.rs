@@ -134,7 +134,9 @@ fn trace_all(
         });
 }
 
-/// `rays` in packets of `L::WIDTH` consecutive rays (the last one partial).
+/// `rays` in packets of `L::WIDTH` consecutive rays (the last one partial). Never inlined, so
+/// that scripts/icount.sh can count its instructions by name.
+#[inline(never)]
 fn packets<L: Lanes>(scene: &InstancedScene, mode: Mode, rays: &[Ray], hits: &mut [InstanceHit]) {
     for (r, h) in rays.chunks(L::WIDTH).zip(hits.chunks_mut(L::WIDTH)) {
         let packet = RayPacket::<L>::from_rays(r);
