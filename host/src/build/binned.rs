@@ -331,14 +331,13 @@ pub fn best_split(
     kept: Kept,
 ) -> Option<(Split, Aabb, bool)> {
     let grid = Grid::new(bounds, bins);
+    let best = |b: &Bins, in_bins: bool| {
+        let split = b.best_split(refs.len(), bounds, &grid, costs)?;
+        Some((split, b.contents, in_bins))
+    };
     #[cfg(feature = "parallel")]
     if parallel && refs.len() >= 4 * CHUNK {
-        let b = count_parallel(refs, &grid);
-        return Some((
-            b.best_split(refs.len(), bounds, &grid, costs)?,
-            b.contents,
-            false,
-        ));
+        return best(&count_parallel(refs, &grid), false);
     }
     let _ = parallel;
     // One set of bins a thread, reused: most binned nodes are small.
@@ -350,11 +349,7 @@ pub fn best_split(
                 b.add(refs, &grid);
             }
         }
-        Some((
-            b.best_split(refs.len(), bounds, &grid, costs)?,
-            b.contents,
-            true,
-        ))
+        best(b, true)
     })
 }
 

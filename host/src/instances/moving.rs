@@ -138,30 +138,18 @@ impl TopLevel {
         let first_record = HEADER_WORDS + NODE_WORDS * nodes;
         // The changed records first, so that a refused placement changes nothing; into the
         // last move's buffer (a frame's 10,000 records are 1.3 MB of fresh pages otherwise).
-        let mut changed = core::mem::take(&mut self.scratch);
+        let changed = &mut self.scratch;
         changed.clear();
-        let mut refused = None;
         for (r, &p) in self.order.iter().enumerate() {
             let at = first_record + RECORD_WORDS * r;
             let placed = &placements[p as usize];
             if !same(&self.words[at..at + RECORD_WORDS], placed) {
-                match item(bottoms, p as usize, placed) {
-                    Ok(it) => changed.push((at, it.record)),
-                    Err(e) => {
-                        refused = Some(e);
-                        break;
-                    }
-                }
+                changed.push((at, item(bottoms, p as usize, placed)?.record));
             }
         }
-        if let Some(e) = refused {
-            self.scratch = changed;
-            return Err(e);
-        }
-        for (at, record) in &changed {
+        for (at, record) in &self.scratch {
             self.words[*at..at + RECORD_WORDS].copy_from_slice(record);
         }
-        self.scratch = changed;
         self.sealed = false;
         let area = refit_boxes(&mut self.words, first_record);
         if area > REBUILD_GROWTH * self.built_area {
