@@ -10,7 +10,8 @@ use kdray::flat::serialize;
 use kdray::instances::{Placement, top_level};
 use kdray_core::format::seal;
 use kdray_core::instance::{
-    Affine, HEADER_WORDS, InstanceError, InstancedScene, NODE_WORDS, RECORD_WORDS, header, record,
+    Affine, HEADER_WORDS, InstanceError, InstancedScene, NODE_WORDS, RECORD_WORDS, header, node,
+    record,
 };
 use kdray_core::traverse::Mode;
 use kdray_core::{Ray, Scene};
@@ -61,6 +62,15 @@ fn record_word(words: &[u32], instance: usize, at: usize) -> usize {
     HEADER_WORDS + NODE_WORDS * nodes + RECORD_WORDS * instance + at
 }
 
+/// The word of the root's first slot that references a node (nine instances: the root's eight
+/// slots hold seven records and one node of two).
+fn root_child_ref(words: &[u32]) -> usize {
+    (0..8)
+        .map(|s| HEADER_WORDS + node::REFS + s)
+        .find(|&at| words[at] & node::RECORD_REF == 0)
+        .expect("a node under the root")
+}
+
 /// `words` changed by `edit`, then resealed.
 fn crafted(words: &[u32], edit: impl FnOnce(&mut Vec<u32>)) -> Vec<u32> {
     let mut w = words.to_vec();
@@ -93,10 +103,13 @@ fn each_kind_of_damage_has_its_error() {
         Scene::from_words(&words).map(|_| ()),
         Err(kdray_core::FormatError::TopLevel)
     );
-    assert_eq!(
-        open(&crafted(&words, |w| w[header::VERSION] = 2)),
-        Err(InstanceError::UnsupportedVersion(2))
-    );
+    // Version 1 (binary nodes) and a future version: refused by number.
+    for v in [1, 3] {
+        assert_eq!(
+            open(&crafted(&words, |w| w[header::VERSION] = v)),
+            Err(InstanceError::UnsupportedVersion(v))
+        );
+    }
     assert_eq!(
         open(&crafted(&words, |w| w[7] = 1)),
         Err(InstanceError::ReservedNotZero)
@@ -169,8 +182,8 @@ fn each_kind_of_damage_has_its_error() {
         open(&crafted(&words, |w| w[r(1, record::BOX)] = f32::NAN.to_bits())),
         Err(InstanceError::BadInstanceBox { instance: 1 })
     );
-    // The root's second child pointing back at the root, or past the end.
-    let child = HEADER_WORDS + 6;
+    // The root's child node pointing back at the root, or past the end.
+    let child = root_child_ref(&words);
     assert_eq!(
         open(&crafted(&words, |w| w[child] = 0)),
         Err(InstanceError::BadChild { node: 0 })
@@ -223,7 +236,7 @@ fn built_words_keep_the_checks_that_bound_the_walk() {
         open(&edit(&|w| w[record_word(&words, 3, record::BOTTOM)] = 1)),
         Err(InstanceError::BadBottom { instance: 3 })
     );
-    let child = HEADER_WORDS + 6;
+    let child = root_child_ref(&words);
     assert_eq!(
         open(&edit(&|w| w[child] = 0)),
         Err(InstanceError::BadChild { node: 0 })
@@ -246,6 +259,86 @@ fn built_words_keep_the_checks_that_bound_the_walk() {
         )),
         Err(InstanceError::BadInstanceBox { instance: 1 })
     );
+}
+
+/// The wide nodes' own rules, each refused: a count outside 1..=8, a used slot emptied or an
+/// unused one filled, a reserved word set, records or nodes referenced out of the depth-first
+/// order (swapped, repeated, backwards), a slot's box outside its parent's or around less than
+/// its record's.
+#[test]
+fn wide_nodes_break_their_rules_and_are_refused() {
+    let mesh = mesh_words();
+    let bottoms = [Scene::from_words(&mesh).unwrap()];
+    let words = top_level(&bottoms, &placements()).unwrap();
+    let open = |w: &[u32]| InstancedScene::from_words(w, &bottoms).map(|_| ());
+    assert_eq!(words[header::NODE_COUNT], 2, "a root and one node of two");
+    let root = |at: usize| HEADER_WORDS + at;
+    let child = root_child_ref(&words);
+    let first_record = (0..8)
+        .map(|s| root(node::REFS + s))
+        .find(|&at| words[at] == node::RECORD_REF)
+        .expect("record 0 under the root");
+    for count in [0, 7, 9, u32::MAX] {
+        assert_eq!(
+            open(&crafted(&words, |w| w[root(node::COUNT)] = count)),
+            Err(InstanceError::BadChild { node: 0 }),
+            "count {count}"
+        );
+    }
+    assert_eq!(
+        open(&crafted(&words, |w| w[root(node::RESERVED.start + 3)] = 1)),
+        Err(InstanceError::BadChild { node: 0 })
+    );
+    // The second node's slot past its count (two) given a box.
+    let second = |at: usize| HEADER_WORDS + NODE_WORDS + at;
+    assert_eq!(
+        open(&crafted(&words, |w| w[second(node::BOXES + 3)] = 0)),
+        Err(InstanceError::BadChild { node: 1 })
+    );
+    // Two records swapped, one named twice, the node named as a record.
+    assert_eq!(
+        open(&crafted(&words, |w| w.swap(first_record, first_record + 1))),
+        Err(InstanceError::RecordOrder { node: 0 })
+    );
+    assert_eq!(
+        open(&crafted(&words, |w| w[first_record + 1] = w[first_record])),
+        Err(InstanceError::RecordOrder { node: 0 })
+    );
+    assert!(open(&crafted(&words, |w| w[child] = node::RECORD_REF | 8)).is_err());
+    // A slot's box not finite, outside the bounds, or smaller than its record's.
+    let slot = first_record - root(node::REFS);
+    assert_eq!(
+        open(&crafted(&words, |w| w[root(slot)] = f32::NAN.to_bits())),
+        Err(InstanceError::BadNodeBox { node: 0 })
+    );
+    assert_eq!(
+        open(&crafted(&words, |w| w[root(slot)] = (-1.0e6f32).to_bits())),
+        Err(InstanceError::BadNodeBox { node: 0 })
+    );
+    assert_eq!(
+        open(&crafted(&words, |w| {
+            let at = root(slot + 8);
+            w[at] = (f32::from_bits(w[at]) - 0.5).to_bits();
+        })),
+        Err(InstanceError::BadInstanceBox { instance: 0 })
+    );
+}
+
+/// One instance: a root of one record slot; two: a root of two.
+#[test]
+fn one_and_two_instances_make_a_root_of_records() {
+    let mesh = mesh_words();
+    let bottoms = [Scene::from_words(&mesh).unwrap()];
+    for n in [1, 2] {
+        let words = top_level(&bottoms, &placements()[..n]).unwrap();
+        assert_eq!(words[header::NODE_COUNT], 1);
+        assert_eq!(words[HEADER_WORDS + node::COUNT], n as u32);
+        let top = InstancedScene::from_words(&words, &bottoms).unwrap();
+        assert_eq!((top.instance_count(), top.depth()), (n as u32, 0));
+        // Straight down onto instance 0's first triangle (the identity turned by 0).
+        let hit = top.intersect(&Ray::new(Vec3::new(0.7, 0.2, 5.0), Vec3::NEG_Z));
+        assert_eq!((hit.user_id, hit.t), (0, 5.0));
+    }
 }
 
 /// Every word of a top level replaced by each of a few values, resealed: refused with an error or

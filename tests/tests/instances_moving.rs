@@ -218,19 +218,16 @@ fn another_count_other_bottoms_or_a_loosened_tree_build_anew() {
     let other = [Scene::from_words(&big).unwrap()];
     assert_eq!(top.move_to(&other, fewer), Ok(Moved::Rebuilt));
     assert_eq!(top.clone().into_words(), top_level(&other, fewer).unwrap());
-    // Every row's first and last instances swapped: the leaves' boxes stretch across the
-    // field, past REBUILD_GROWTH times the areas of the tree built for them.
+    // Each instance on the checkerboard's dark cells swapped with its mirror image through the
+    // field's centre (a dark cell too): every node of two neighbours (one dark, one light) now
+    // stretches across the field, past REBUILD_GROWTH times the areas of the tree built for them.
     let mut top = TopLevel::build(&bottoms, &field(0.0)).unwrap();
     let mut swapped = field(0.0);
-    for row in 0..4 {
-        let (a, b) = (swapped[4 * row].transform, swapped[4 * row + 3].transform);
-        (swapped[4 * row].transform, swapped[4 * row + 3].transform) = (b, a);
+    for k in (0..16).filter(|k| (k % 4 + k / 4) % 2 == 0 && *k < 8) {
+        let (a, b) = (swapped[k].transform, swapped[15 - k].transform);
+        (swapped[k].transform, swapped[15 - k].transform) = (b, a);
     }
-    for k in 0..4 {
-        let (a, b) = (swapped[k].transform, swapped[12 + k].transform);
-        (swapped[k].transform, swapped[12 + k].transform) = (b, a);
-    }
-    // The swaps grow the nodes' areas about 2.5-fold.
+    // The swaps grow the nodes' areas about 2.8-fold.
     const { assert!(REBUILD_GROWTH <= 2.0) };
     assert_eq!(top.move_to(&bottoms, &swapped), Ok(Moved::Rebuilt));
     assert_eq!(top.into_words(), top_level(&bottoms, &swapped).unwrap());

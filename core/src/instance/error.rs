@@ -37,16 +37,19 @@ pub enum InstanceError {
     /// A record's inverse is not its transform's ([`super::affine::Affine::inverts`]).
     InverseMismatch { instance: u32 },
     /// A record's box is not finite, misses part of its bottom scene's image, or lies outside
-    /// the header's bounds or its leaf's box.
+    /// the header's bounds or its slot's box.
     BadInstanceBox { instance: u32 },
     /// The tree is deeper than [`MAX_DEPTH`], or than DEPTH says, or shallower.
     BadDepth,
-    /// A node's child index breaks the pre-order, or its count word is malformed.
+    /// A node's reference to another node is not the next node the depth-first walk meets (so
+    /// backwards, out of range, shared or missing), or the node's count is not 1..=8, a slot past
+    /// it is not empty, or a reserved word is set.
     BadChild { node: u32 },
-    /// A node's box is not finite or lies outside its parent's (or the header's, for the root).
+    /// A slot's box in this node is not finite or lies outside the box of the parent's slot that
+    /// names the node (or the header's bounds, for the root).
     BadNodeBox { node: u32 },
-    /// A leaf's range of records does not start where the previous leaf's ended, or the leaves
-    /// do not use every record.
+    /// A slot of this node names a record other than the next one the depth-first walk should
+    /// meet, or the slots do not name every record.
     RecordOrder { node: u32 },
 }
 
@@ -99,14 +102,17 @@ impl core::fmt::Display for InstanceError {
                 "instance {instance}: world box is not finite or does not contain the instance"
             ),
             Self::BadDepth => write!(f, "tree depth is above {MAX_DEPTH} or wrong"),
-            Self::BadChild { node } => write!(f, "node {node}: child index breaks the tree order"),
+            Self::BadChild { node } => write!(
+                f,
+                "node {node}: a child reference or the slot count breaks the tree's rules"
+            ),
             Self::BadNodeBox { node } => write!(
                 f,
-                "node {node}: box is not finite or lies outside its parent's"
+                "node {node}: a slot's box is not finite or lies outside its parent's"
             ),
             Self::RecordOrder { node } => write!(
                 f,
-                "node {node}: leaf's instance range is out of turn (leaves must use the records in turn)"
+                "node {node}: an instance record out of turn (the slots must name the records in turn)"
             ),
         }
     }

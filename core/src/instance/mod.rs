@@ -18,12 +18,12 @@
 //!  0  MAGIC           0x4952_444B, the bytes "KDRI" read as a little-endian u32 (a single-mesh
 //!                     scene's "KDRY" is refused with `InstanceError::SingleMesh`, and the
 //!                     single-mesh reader refuses "KDRI" with `FormatError::TopLevel`)
-//!  1  VERSION         1
+//!  1  VERSION         2 (version 1, a binary tree of 8-word nodes, is refused: rebuild it)
 //!  2  TOTAL_WORDS     length of the whole array in words
 //!  3  INSTANCE_COUNT  instance records (≥ 1)
-//!  4  NODE_COUNT      nodes of the tree over the instances (≥ 1)
+//!  4  NODE_COUNT      wide nodes of the tree over the instances (≥ 1)
 //!  5  BOTTOM_COUNT    bottom scenes the records index: the length of the slice passed in
-//!  6  DEPTH           depth of the tree (root alone = 0), at most `MAX_DEPTH`
+//!  6  DEPTH           depth of the tree (root alone = 0), at most [`MAX_DEPTH`]
 //!  7  RESERVED        0
 //!  8..14 BOUNDS       world box of every instance: min x, y, z, max x, y, z (f32 bits)
 //! 14..24 RESERVED     0
@@ -32,27 +32,33 @@
 //! 26..32 RESERVED     0
 //! ```
 //! Then the sections, with no offsets stored: they follow in this order and size, so that
-//! `TOTAL_WORDS = 32 + 8·NODE_COUNT + 32·INSTANCE_COUNT` (each section starts on a multiple of
+//! `TOTAL_WORDS = 32 + 64·NODE_COUNT + 32·INSTANCE_COUNT` (each section starts on a multiple of
 //! 8 words, 32 bytes).
 //!
-//! # Nodes (8 words each, from word 32)
-//! A bounding volume hierarchy over the instances' world boxes, binary, in pre-order: a node's
-//! first child is the next node, its second child's index is stored.
+//! # Nodes (64 words each, from word 32)
+//! A bounding volume hierarchy over the instances' world boxes, eight children a node (format
+//! version 2; version 1's binary nodes tested two boxes a level, one axis at a time, three
+//! quarters of a single ray's instructions through 100 bunnies), in pre-order. Each child, a
+//! *slot*, is another node or one instance record, and its box is stored in its parent, struct
+//! of arrays as the single-mesh wide nodes store theirs ([`crate::traverse::wide`]), so that one
+//! ray tests a node's eight boxes in one 8-wide slab test.
 //! ```text
-//!  0..6  BOX          min x, y, z, max x, y, z (f32 bits): contains its children's boxes, or
-//!                     its instances' boxes for a leaf
-//!  6     CHILD/FIRST  interior: index of the second child (> this node + 1);
-//!                     leaf: index of its first instance record
-//!  7     COUNT        0 for an interior node; a leaf: its number of instance records (≥ 1)
+//!  0..48  BOXES   word 8·(2·axis + side) + slot, side 0 = min, 1 = max (f32 bits): the slot's
+//!                 box, containing its node's slots' boxes or its record's box; a slot past
+//!                 COUNT holds min = +∞, max = −∞
+//! 48..56  REFS    slot's child: bit 31 set ([`node::RECORD_REF`]), the index of an instance
+//!                 record in bits 0..31; clear, the index of a node (> this node); 0 past COUNT
+//! 56      COUNT   slots used, 1..=8: slots 0..COUNT
+//! 57..64  RESERVED 0
 //! ```
-//! The leaves use the records in turn: in node order, each leaf's range starts where the
-//! previous leaf's ended, the first at 0, the last ends at INSTANCE_COUNT (the index-list
-//! tiling of [`crate::format`]), so each record belongs to exactly one leaf.
+//! A depth-first walk in slot order meets the nodes in index order and the records in index
+//! order, each once: every node but the root is referenced by exactly one slot, every record by
+//! exactly one slot.
 //!
 //! Why a BVH and not a kd-tree: instances overlap one another, so a kd-tree over them would
 //! reference one instance from many leaves; a BVH over whole boxes references each once, is
-//! built by sorting in `O(n log n)` (median splits, the host's `kdray::instances`) and is cheap
-//! to rebuild when instances move.
+//! built by sorting in `O(n log n)` (median splits into eight, the host's `kdray::instances`) and
+//! is cheap to rebuild or refit when instances move.
 //!
 //! # Instance records (32 words each, after the nodes)
 //! ```text
@@ -72,9 +78,11 @@
 //! finite, a transform that is singular or nearly so ([`affine::MIN_DET_RATIO`]), an inverse
 //! that is not the transform's within [`affine::INVERSE_TOLERANCE`], a box not finite, not
 //! containing the image of its bottom scene's box (checked in f64) or outside the header's
-//! bounds; for the tree, children out of pre-order, a depth above [`MAX_DEPTH`] or other than
-//! DEPTH, a box not finite or outside its parent's, leaf ranges that do not tile the records,
-//! a record's box outside its leaf's.
+//! bounds; for the tree, a count outside 1..=8, a slot past it not empty, a reserved word set,
+//! nodes or records not met in index order by the depth-first walk (so a reference backwards,
+//! out of range, shared or missing), a depth above [`MAX_DEPTH`] or other than DEPTH, a slot's
+//! box not finite or outside its parent's slot's (the root's outside the header's bounds), a
+//! record's box outside its slot's.
 //!
 //! What a crafted top level that passes can still do: place instances where its writer did not
 //! mean them. Every walk stays in range and ends (the tree's children point forward, the bottom
@@ -90,13 +98,14 @@
 //!
 //! # The walk
 //! [`InstancedScene::intersect_in`] and [`InstancedScene::occluded_in`] ([`walk`]): the tree in
-//! front-to-back order over the world ray, each instance entered with the ray moved into it by
+//! front-to-back order over the world ray (a node's entered slots nearest first, the others
+//! pending with their entry distances), each instance entered with the ray moved into it by
 //! the inverse, direction not normalized, so that `t` stays the world ray's and closest hits
 //! compare across instances; the bottom scene's own walk runs with `tmax` the closest hit so far.
 //!
 //! Packets of 4 or 8 world rays ([`InstancedScene::intersect_packet_in`],
 //! [`InstancedScene::occluded_packet_in`], [`packet`]) walk the tree together, lanes masked by
-//! the box tests (each lane's the single ray's, bit for bit); the lanes that enter an instance
+//! each slot's box test (each lane's the single ray's, bit for bit); the lanes that enter an instance
 //! are moved into it together and run the bottom scene's packet walk with each lane's closest
 //! hit so far as its `tmax` (one or two lanes go in by the single-ray steps instead). A whole
 //! array of rays: [`stream::intersect`], [`stream::occluded`] (coherent runs as packets, the
@@ -122,15 +131,20 @@ use glam::Vec3;
 /// "KDRI" as a little-endian word (the single-mesh format knows it too, to name it in its error).
 pub const MAGIC: u32 = crate::format::TOP_LEVEL_MAGIC;
 /// The top level's format version this core reads and the host writes.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// Words before the nodes.
 pub const HEADER_WORDS: usize = 32;
 /// Words of one node.
-pub const NODE_WORDS: usize = 8;
+pub const NODE_WORDS: usize = 64;
+/// Slots of one node.
+pub const WIDTH: usize = 8;
 /// Words of one instance record.
 pub const RECORD_WORDS: usize = 32;
-/// The deepest tree over the instances the walk's fixed stack accepts.
-pub const MAX_DEPTH: usize = 64;
+/// The deepest tree over the instances the walks' fixed stacks accept (the builder's median
+/// splits into eight reach depth 11 for 2³² instances).
+pub const MAX_DEPTH: usize = 32;
+/// The walks' stacks: at most seven pending slots for each node on the way down.
+pub(crate) const STACK: usize = (WIDTH - 1) * (MAX_DEPTH + 1);
 
 /// Header word indices.
 pub mod header {
@@ -150,9 +164,17 @@ pub mod header {
 
 /// Word indices within a node.
 pub mod node {
-    pub const BOX: usize = 0;
-    pub const CHILD_OR_FIRST: usize = 6;
-    pub const COUNT: usize = 7;
+    /// The first box word: slot `s`'s bound `side` (0 min, 1 max) on `axis` at
+    /// `BOXES + 8·(2·axis + side) + s`.
+    pub const BOXES: usize = 0;
+    /// The first slot reference.
+    pub const REFS: usize = 48;
+    /// The number of slots used.
+    pub const COUNT: usize = 56;
+    /// The words that must be zero.
+    pub const RESERVED: core::ops::Range<usize> = 57..64;
+    /// A reference's record bit: set, the rest is a record's index; clear, a node's.
+    pub const RECORD_REF: u32 = 1 << 31;
 }
 
 /// Word indices within an instance record.
@@ -165,6 +187,9 @@ pub mod record {
 }
 
 const _: () = assert!(header::CHECKSUM == crate::format::header::CHECKSUM);
+const _: () = assert!(
+    node::BOXES == crate::traverse::wide::BOXES && NODE_WORDS == crate::traverse::wide::NODE_WORDS
+);
 const _: () = assert!(HEADER_WORDS == crate::format::HEADER_WORDS);
 const _: () = assert!(record::BOX + 6 == RECORD_WORDS && record::INVERSE == affine::AFFINE_WORDS);
 
@@ -186,11 +211,21 @@ pub struct Instance {
 /// A validated top level borrowing its words and the bottom scenes it indexes.
 #[derive(Clone, Copy, Debug)]
 pub struct InstancedScene<'a, 'b> {
-    nodes: &'a [[u32; NODE_WORDS]],
+    nodes: &'a [Node],
     records: &'a [[u32; RECORD_WORDS]],
     bottoms: &'b [Scene<'b>],
     bounds: [Vec3; 2],
     depth: u32,
+}
+
+/// A node's words.
+pub type Node = [u32; NODE_WORDS];
+
+/// Slot `s`'s box in a node as six words, min x, y, z, max x, y, z (a record's layout).
+#[inline(always)]
+fn slot_words(nd: &Node, s: usize) -> [u32; 6] {
+    let w = |axis: usize, side: usize| nd[node::BOXES + 8 * (2 * axis + side) + s];
+    [w(0, 0), w(1, 0), w(2, 0), w(0, 1), w(1, 1), w(2, 1)]
 }
 
 /// A box from six f32 words.
@@ -215,7 +250,7 @@ impl<'a, 'b> InstancedScene<'a, 'b> {
         self.records.len() as u32
     }
 
-    /// Nodes of the tree over the instances.
+    /// Nodes of the tree over the instances (eight slots each).
     #[inline]
     pub fn node_count(&self) -> u32 {
         self.nodes.len() as u32

@@ -5,10 +5,10 @@
 //!
 //! The tree over the instances is walked once for the packet: each box is tested by every live
 //! lane at once, with the arithmetic of the single-ray walk's `Slabs` lane by lane (so a lane
-//! enters exactly the boxes its single ray would enter with the same `tmax`), the packet goes
-//! down the children that some lane enters, the nearer first (by the majority of the lanes
-//! entering both), the other pending with its lanes and their entry distances, and a pending
-//! node is taken only by the lanes whose closest hit so far lies beyond their entry. At an
+//! enters exactly the boxes its single ray would enter with the same `tmax`), slot by slot of a
+//! node; the packet goes down the slot some lane enters first (the least entry distance of its
+//! lanes), the other slots entered pending with their lanes and entry distances, and a pending
+//! slot is taken only by the lanes whose closest hit so far lies beyond their entry. At an
 //! instance, the lanes that enter its box are moved into it together (origin by the stored
 //! inverse, direction by its linear part, each lane rounded as [`into_instance`] rounds, the same
 //! per-lane power-of-two rescale where the moved direction is far from unit length), and the
@@ -24,7 +24,9 @@
 //! only if the single ray does.
 
 use super::walk::{into_instance, unit_scale};
-use super::{Affine, InstanceHit, InstancedScene, MAX_DEPTH, NODE_WORDS, affine_at, node, record};
+use super::{
+    Affine, InstanceHit, InstancedScene, Node, STACK, WIDTH, affine_at, node, record, slot_words,
+};
 use crate::format::Scene;
 use crate::simd::lanes::{Lanes, Vec3x, set_lanes};
 use crate::simd::packet::RayPacket;
@@ -437,68 +439,50 @@ impl InstancedScene<'_, '_> {
             return;
         }
         let slabs = PacketSlabs::new(rays);
-        let root = &self.nodes[0][node::BOX..];
-        let mut lanes = slabs
-            .enter(root, visit.tmax(), L::mask_from_bits(live))
-            .0
-            .bitmask();
-        if lanes == 0 {
-            return;
-        }
-        let mut current = 0u32;
-        // A pending node, the lanes that entered it and their entry distances. At most one
-        // pending node per level: the validated depth bounds the stack.
-        let mut stack: heapless::Vec<(u32, u32, L), MAX_DEPTH> = heapless::Vec::new();
+        let (mut current, mut lanes) = (0u32, live);
+        // A pending slot, the lanes that entered it and their entry distances. At most seven a
+        // node on the way down: the validated depth bounds the stack.
+        let mut stack: heapless::Vec<(u32, u32, L), STACK> = heapless::Vec::new();
         loop {
-            let nd: &[u32; NODE_WORDS] = &self.nodes[current as usize];
-            let count = nd[node::COUNT];
-            let mut next = None;
-            let here = L::mask_from_bits(lanes);
-            if count == 0 {
-                let (a, b) = (current + 1, nd[node::CHILD_OR_FIRST]);
-                let tmax = visit.tmax();
-                let (ma, ta) = slabs.enter(&self.nodes[a as usize][node::BOX..], tmax, here);
-                let (mb, tb) = slabs.enter(&self.nodes[b as usize][node::BOX..], tmax, here);
-                let (la, lb) = (ma.bitmask(), mb.bitmask());
-                next = match (la != 0, lb != 0) {
-                    (true, true) => {
-                        // The nearer child for most of the lanes that enter both.
-                        let both = ma & mb;
-                        let a_first = (both & ta.le(tb)).bitmask().count_ones()
-                            >= (both & tb.lt(ta)).bitmask().count_ones();
-                        let (near, far) = if a_first {
-                            ((a, la), (b, lb, tb))
-                        } else {
-                            ((b, lb), (a, la, ta))
-                        };
-                        let _ = stack.push(far);
-                        Some(near)
-                    }
-                    (true, false) => Some((a, la)),
-                    (false, true) => Some((b, lb)),
-                    (false, false) => None,
-                };
+            if current & node::RECORD_REF != 0 {
+                let open = lanes & visit.open();
+                if open != 0 && visit.instance(self, current & !node::RECORD_REF, open) {
+                    return;
+                }
             } else {
-                let first = nd[node::CHILD_OR_FIRST];
-                for i in first..first + count {
-                    let open = lanes & visit.open();
-                    if open == 0 {
-                        break;
+                let nd: &Node = &self.nodes[current as usize];
+                let here = L::mask_from_bits(lanes);
+                let tmax = visit.tmax();
+                // The slots some lane enters: (the nearest lane's entry, reference, lanes,
+                // entries), sorted farthest first as they come.
+                let mut sorted = [(0.0f32, 0u32, 0u32, L::splat(0.0)); WIDTH];
+                let mut k = 0;
+                for s in 0..(nd[node::COUNT] as usize).min(WIDTH) {
+                    let (m, t) = slabs.enter(&slot_words(nd, s), tmax, here);
+                    let bits = m.bitmask();
+                    if bits == 0 {
+                        continue;
                     }
-                    let r = &self.records[i as usize];
-                    let (m, _) =
-                        slabs.enter(&r[record::BOX..], visit.tmax(), L::mask_from_bits(open));
-                    let m = m.bitmask();
-                    if m != 0 && visit.instance(self, i, m) {
-                        return;
+                    let masked = m.select(t, L::splat(f32::INFINITY)).to_array();
+                    let near = masked.as_ref().iter().fold(f32::INFINITY, |a, &b| a.min(b));
+                    let item = (near, nd[node::REFS + s], bits, t);
+                    let mut j = k;
+                    while j > 0 && sorted[j - 1].0 < near {
+                        sorted[j] = sorted[j - 1];
+                        j -= 1;
                     }
+                    sorted[j] = item;
+                    k += 1;
+                }
+                if k > 0 {
+                    for &(_, r, l, t) in &sorted[..k - 1] {
+                        let _ = stack.push((r, l, t));
+                    }
+                    (current, lanes) = (sorted[k - 1].1, sorted[k - 1].2);
+                    continue;
                 }
             }
-            if let Some((n, l)) = next {
-                (current, lanes) = (n, l);
-                continue;
-            }
-            // The next pending node that some lane enters before its closest hit so far.
+            // The next pending slot that some lane enters before its closest hit so far.
             loop {
                 let Some((n, l, t)) = stack.pop() else {
                     return;

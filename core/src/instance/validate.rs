@@ -2,8 +2,8 @@
 //! it checks and what it costs: "Validation" in [`super`]).
 
 use super::{
-    HEADER_WORDS, InstanceError, InstancedScene, MAGIC, MAX_DEPTH, NODE_WORDS, RECORD_WORDS,
-    VERSION, affine_at, box_at, header, node, record,
+    HEADER_WORDS, InstanceError, InstancedScene, MAGIC, MAX_DEPTH, NODE_WORDS, Node, RECORD_WORDS,
+    VERSION, WIDTH, affine_at, box_at, header, node, record, slot_words,
 };
 use crate::format::{self, Scene, checksum};
 use glam::Vec3;
@@ -161,71 +161,61 @@ fn check_record(
     Ok(())
 }
 
-/// The tree: one tree in pre-order no deeper than [`MAX_DEPTH`], each box finite and inside its
-/// parent's (the root's inside `bounds`), the leaves' ranges tiling `records` in node order,
-/// each record's box inside its leaf's. Returns the depth. One pass over the nodes with a stack
-/// of the second children still to come (at most one per level).
+/// The tree: the nodes and records met in index order by a depth-first walk in slot order
+/// (so every reference points forward and names each node and record once), no deeper than
+/// [`MAX_DEPTH`], each node's count in 1..=8 with the slots past it empty and its reserved words
+/// zero, each used slot's box finite and inside its parent slot's (the root's inside `bounds`),
+/// each record's box inside its slot's. Returns the depth. One pass over the slots with a stack
+/// of the nodes on the way down.
 fn check_tree(
-    nodes: &[[u32; NODE_WORDS]],
+    nodes: &[Node],
     records: &[[u32; RECORD_WORDS]],
     bounds: [Vec3; 2],
 ) -> Result<u32, InstanceError> {
-    // (the index a second child must have, its depth, its parent's box)
-    let mut pending = [(0u32, 0u32, bounds); MAX_DEPTH + 1];
-    let mut len = 0;
-    let (mut depth, mut parent) = (0u32, bounds);
-    let (mut deepest, mut next_record) = (0u32, 0usize);
-    for (i, nd) in nodes.iter().enumerate() {
-        let at = i as u32;
-        if depth as usize > MAX_DEPTH {
-            return Err(InstanceError::BadDepth);
-        }
-        deepest = deepest.max(depth);
-        let b = box_at(&nd[node::BOX..]);
-        if !is_box(b) || !inside(b, parent) {
-            return Err(InstanceError::BadNodeBox { node: at });
-        }
-        let (word, count) = (nd[node::CHILD_OR_FIRST], nd[node::COUNT] as usize);
-        if count == 0 {
-            // Interior: the first child is the next node, the second comes later.
-            if word as usize <= i + 1 || word as usize >= nodes.len() || len == pending.len() {
-                return Err(InstanceError::BadChild { node: at });
-            }
-            pending[len] = (word, depth + 1, b);
-            len += 1;
-            (depth, parent) = (depth + 1, b);
+    // (a node on the way down, its next slot, the box its parent's slot gave it)
+    let mut path: heapless::Vec<(usize, usize, [Vec3; 2]), { MAX_DEPTH + 1 }> =
+        heapless::Vec::new();
+    check_node(nodes, 0)?;
+    let _ = path.push((0, 0, bounds));
+    let (mut next_node, mut next_record, mut deepest) = (1usize, 0usize, 0u32);
+    while let Some(top) = path.last_mut() {
+        let (n, slot, parent) = *top;
+        let nd = &nodes[n];
+        if slot == nd[node::COUNT] as usize {
+            path.pop();
             continue;
         }
-        let first = word as usize;
-        let end = first.checked_add(count).filter(|&e| e <= records.len());
-        let Some(end) = end.filter(|_| first == next_record) else {
-            return Err(InstanceError::RecordOrder { node: at });
-        };
-        for (k, r) in records[first..end].iter().enumerate() {
-            if !inside(box_at(&r[record::BOX..]), b) {
-                return Err(InstanceError::BadInstanceBox {
-                    instance: (first + k) as u32,
-                });
+        top.1 += 1;
+        let b = box_at(&slot_words(nd, slot));
+        if !is_box(b) || !inside(b, parent) {
+            return Err(InstanceError::BadNodeBox { node: n as u32 });
+        }
+        let r = nd[node::REFS + slot];
+        if r & node::RECORD_REF != 0 {
+            let i = (r & !node::RECORD_REF) as usize;
+            if i != next_record || i >= records.len() {
+                return Err(InstanceError::RecordOrder { node: n as u32 });
             }
-        }
-        next_record = end;
-        // The next node must be the second child most recently deferred, or there is none.
-        if len == 0 {
-            if i + 1 != nodes.len() {
-                return Err(InstanceError::BadChild { node: at + 1 });
+            if !inside(box_at(&records[i][record::BOX..]), b) {
+                return Err(InstanceError::BadInstanceBox { instance: i as u32 });
             }
-            break;
+            next_record += 1;
+            continue;
         }
-        len -= 1;
-        let (second, d, pb) = pending[len];
-        if second as usize != i + 1 {
-            return Err(InstanceError::BadChild { node: second });
+        let child = r as usize;
+        if child != next_node || child >= nodes.len() {
+            return Err(InstanceError::BadChild { node: n as u32 });
         }
-        (depth, parent) = (d, pb);
+        check_node(nodes, child)?;
+        next_node += 1;
+        if path.push((child, 0, b)).is_err() {
+            return Err(InstanceError::BadDepth);
+        }
+        deepest = deepest.max(path.len() as u32 - 1);
     }
-    if len != 0 {
+    if next_node != nodes.len() {
         return Err(InstanceError::BadChild {
-            node: nodes.len() as u32 - 1,
+            node: next_node as u32,
         });
     }
     if next_record != records.len() {
@@ -234,4 +224,24 @@ fn check_tree(
         });
     }
     Ok(deepest)
+}
+
+/// Node `n`'s count in 1..=8, its slots past the count empty (min `+∞`, max `−∞`, reference 0)
+/// and its reserved words zero.
+fn check_node(nodes: &[Node], n: usize) -> Result<(), InstanceError> {
+    let nd = &nodes[n];
+    let count = nd[node::COUNT] as usize;
+    let empty = |s: usize| {
+        let w = slot_words(nd, s);
+        w[..3].iter().all(|&x| x == f32::INFINITY.to_bits())
+            && w[3..].iter().all(|&x| x == f32::NEG_INFINITY.to_bits())
+            && nd[node::REFS + s] == 0
+    };
+    if !(1..=WIDTH).contains(&count)
+        || !(count..WIDTH).all(empty)
+        || nd[node::RESERVED].iter().any(|&w| w != 0)
+    {
+        return Err(InstanceError::BadChild { node: n as u32 });
+    }
+    Ok(())
 }

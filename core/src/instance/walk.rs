@@ -1,11 +1,12 @@
 //! The two-level walk: closest hit ([`InstancedScene::intersect_in`]) and any hit
 //! ([`InstancedScene::occluded_in`]) of one world ray, in fast or watertight mode.
 //!
-//! The tree over the instances is walked front to back (the nearer child first, the other
-//! pending with its entry distance and skipped once the closest hit lies before it), each box
-//! entered as the watertight walk enters the scene box ([`crate::traverse::clip_to_box_in`],
-//! both slab distances widened outward; here with the direction's reciprocals computed once a
-//! ray, `Slabs`). At an instance, the ray is moved into the bottom scene:
+//! The tree over the instances is walked front to back (of a node's slots entered, the nearest
+//! first, the others pending with their entry distances and skipped once the closest hit lies
+//! before them), each box entered as the watertight walk enters the scene box
+//! ([`crate::traverse::clip_to_box_in`], both slab distances widened outward; here with the
+//! direction's reciprocals computed once a ray, `Slabs`, and a node's eight boxes tested in one
+//! pass of eight lanes where the reciprocals are finite and not zero). At an instance, the ray is moved into the bottom scene:
 //! origin by the stored inverse ([`Affine::point`]), direction by its linear part
 //! ([`Affine::vector`]), **not normalized**, so a point at parameter `t` on the moved ray is the
 //! image of the world ray's point at the same `t`: `t` stays in world units and the closest hits
@@ -27,10 +28,11 @@
 //! 10³⁴) is taken as unbounded on that side by the bottom walk; closest hits are then checked
 //! against the world range again, any hit is not.
 
-use super::{Affine, InstancedScene, MAX_DEPTH, NODE_WORDS, affine_at, node, record};
+use super::{Affine, InstancedScene, Node, STACK, WIDTH, affine_at, node, record, slot_words};
 use crate::format::Scene;
 use crate::ray::{Hit, Ray};
-use crate::traverse::{Mode, TINY, WIDEN, widen};
+use crate::traverse::wide::walk::{RaySetup, slab};
+use crate::traverse::{Mode, TINY, Triangles, WIDEN, Watertight, widen};
 
 /// The closest hit of a ray through a top level.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -205,6 +207,20 @@ impl Slabs {
         }
         (t0 <= t1).then_some(t0)
     }
+
+    /// [`Slabs::enter`] for each used slot of `nd`: the mask of slots entered and their entry
+    /// distances, as [`slab`] returns them.
+    fn enter_slots(&self, nd: &Node, tmax: f32) -> (u32, [f32; WIDTH]) {
+        let (mut mask, mut entry) = (0u32, [f32::INFINITY; WIDTH]);
+        let count = (nd[node::COUNT] as usize).min(WIDTH);
+        for (s, e) in entry.iter_mut().enumerate().take(count) {
+            if let Some(t) = self.enter(&slot_words(nd, s), tmax) {
+                mask |= 1 << s;
+                *e = t;
+            }
+        }
+        (mask, entry)
+    }
 }
 
 /// What the walk does with each instance it enters; returns the closest `t` so far (the walk
@@ -302,69 +318,84 @@ impl InstancedScene<'_, '_> {
         visit.found
     }
 
-    /// The front-to-back walk of the tree (see the module doc).
+    /// The front-to-back walk of the tree (see the module doc): a node's eight boxes in one
+    /// slab test of eight lanes ([`slab`], the widened distances of [`Slabs::enter_plain`] lane
+    /// by lane) for a ray whose reciprocals are all finite and not zero, slot by slot
+    /// ([`Slabs::enter`]) for the others.
     fn walk<V: Visit>(&self, ray: &Ray, visit: &mut V) {
         if !ray.is_finite() {
             return;
         }
         let mut tmax = ray.tmax;
-        let mut stack = [(0u32, 0.0f32); MAX_DEPTH];
-        let mut len = 0;
         let slabs = Slabs::new(ray);
-        let mut current = match slabs.enter(&self.nodes[0][node::BOX..], tmax) {
-            Some(_) => 0u32,
-            None => return,
-        };
+        let setup = slabs.plain.then(|| RaySetup::new(ray));
+        let mut stack: heapless::Vec<(u32, f32), STACK> = heapless::Vec::new();
+        let mut current = 0u32;
         loop {
-            let nd: &[u32; NODE_WORDS] = &self.nodes[current as usize];
-            let count = nd[node::COUNT];
-            let mut next = None;
-            if count == 0 {
-                let (a, b) = (current + 1, nd[node::CHILD_OR_FIRST]);
-                let ta = slabs.enter(&self.nodes[a as usize][node::BOX..], tmax);
-                let tb = slabs.enter(&self.nodes[b as usize][node::BOX..], tmax);
-                next = match (ta, tb) {
-                    (Some(ta), Some(tb)) => {
-                        let (near, far, tfar) = if tb < ta { (b, a, ta) } else { (a, b, tb) };
-                        // At most one pending node per level: the depth bounds the stack.
-                        stack[len] = (far, tfar);
-                        len += 1;
-                        Some(near)
-                    }
-                    (Some(_), None) => Some(a),
-                    (None, Some(_)) => Some(b),
-                    (None, None) => None,
-                };
-            } else {
-                let first = nd[node::CHILD_OR_FIRST];
-                for i in first..first + count {
-                    let r = &self.records[i as usize];
-                    if slabs.enter(&r[record::BOX..], tmax).is_none() {
-                        continue;
-                    }
-                    let (t, stop) = visit.instance(self, i, ray);
-                    if stop {
-                        return;
-                    }
-                    tmax = t;
-                }
-            }
-            if let Some(n) = next {
-                current = n;
-                continue;
-            }
-            // The nearest pending node entered before the closest hit so far.
-            loop {
-                if len == 0 {
+            if current & node::RECORD_REF != 0 {
+                let (t, stop) = visit.instance(self, current & !node::RECORD_REF, ray);
+                if stop {
                     return;
                 }
-                len -= 1;
-                let (n, t) = stack[len];
-                if !(t > tmax) {
-                    current = n;
-                    break;
+                tmax = t;
+            } else {
+                let nd: &Node = &self.nodes[current as usize];
+                let (mask, entry) = match &setup {
+                    Some(setup) => slab::<Watertight<Triangles>>(nd, setup, tmax),
+                    None => slabs.enter_slots(nd, tmax),
+                };
+                if mask.is_power_of_two() {
+                    current = nd[node::REFS + mask.trailing_zeros() as usize];
+                    continue;
+                }
+                if mask != 0 {
+                    current = push_farther(nd, mask, &entry, &mut stack);
+                    continue;
+                }
+            }
+            // The nearest pending slot entered before the closest hit so far.
+            loop {
+                match stack.pop() {
+                    None => return,
+                    Some((n, t)) if !(t > tmax) => {
+                        current = n;
+                        break;
+                    }
+                    Some(_) => {}
                 }
             }
         }
     }
+}
+
+/// Of the slots entered (`mask`, two or more) at their `entry` distances: pushes all but the
+/// nearest, farthest first so that they pop nearest first, and returns the nearest's reference.
+/// At most seven a node: validation's depth bounds the stack, and a push never fails.
+#[inline(always)]
+fn push_farther(
+    nd: &Node,
+    mask: u32,
+    entry: &[f32; WIDTH],
+    stack: &mut heapless::Vec<(u32, f32), STACK>,
+) -> u32 {
+    // Insertion sort of (entry, reference), farthest first; equal entries keep slot order.
+    let mut sorted = [(0.0f32, 0u32); WIDTH];
+    let mut k = 0;
+    let mut m = mask;
+    while m != 0 {
+        let s = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let item = (entry[s], nd[node::REFS + s]);
+        let mut j = k;
+        while j > 0 && sorted[j - 1].0 < item.0 {
+            sorted[j] = sorted[j - 1];
+            j -= 1;
+        }
+        sorted[j] = item;
+        k += 1;
+    }
+    for &(t, r) in &sorted[..k - 1] {
+        let _ = stack.push((r, t));
+    }
+    sorted[k - 1].1
 }

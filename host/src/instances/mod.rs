@@ -4,8 +4,9 @@
 //! word: `kdray_core::instance`).
 //!
 //! Moving instances rebuilds the top level alone: [`top_level`] reads each bottom scene's box,
-//! never its tree, and runs in `O(n log n)` for `n` instances (the tree over them is split at the
-//! median of the longest axis of its instances' centres, down to leaves of [`LEAF_MAX`]), so a
+//! never its tree, and runs in `O(n log n)` for `n` instances (each node's instances split into
+//! up to eight groups at medians of the longest axis of their centres, down to single
+//! instances), so a
 //! frame that moves instances pays for that and not for the meshes
 //! (`cargo run --release -p kdray --example instances` times it for 10,000 instances). The same
 //! instances moved again refit the tree instead of rebuilding it ([`TopLevel::move_to`],
@@ -40,8 +41,8 @@ use glam::Vec3;
 use kdray_core::Ray;
 use kdray_core::format::{Scene, seal};
 use kdray_core::instance::{
-    Affine, HEADER_WORDS, InstanceHit, InstancedScene, MAGIC, NODE_WORDS, RECORD_WORDS, VERSION,
-    header, node, record,
+    Affine, HEADER_WORDS, InstanceHit, InstancedScene, MAGIC, NODE_WORDS, Node, RECORD_WORDS,
+    VERSION, WIDTH, header, node, record,
 };
 use kdray_core::traverse::Mode;
 
@@ -56,9 +57,6 @@ pub fn trace_rays(scene: &InstancedScene, mode: Mode, rays: &[Ray], hits: &mut [
         *hit = scene.intersect_in(mode, ray);
     }
 }
-
-/// The most instances a leaf of the tree holds.
-pub const LEAF_MAX: usize = 4;
 
 /// One instance: which bottom scene, where, and the id its hits report.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -135,10 +133,21 @@ fn built(bottoms: &[Scene], placements: &[Placement]) -> Result<(Vec<u32>, Vec<u
             at: at as u32,
         })
         .collect();
-    let mut nodes = Vec::with_capacity(2 * placements.len() / LEAF_MAX + 1);
+    let mut nodes = Vec::with_capacity(placements.len() / (WIDTH - 1) + 1);
     let mut records = Vec::with_capacity(placements.len());
     let mut order = Vec::with_capacity(placements.len());
-    let (depth, _) = subtree(&items, &mut keys, &mut nodes, &mut records, &mut order, 0);
+    let (depth, bounds) = if keys.len() == 1 {
+        // One instance: a root of one record slot.
+        let mut root = empty_node();
+        set_slot(&mut root, 0, items[0].bounds, node::RECORD_REF);
+        root[node::COUNT] = 1;
+        nodes.push(root);
+        records.push(items[0].record);
+        order.push(0);
+        (0, items[0].bounds)
+    } else {
+        subtree(&items, &mut keys, &mut nodes, &mut records, &mut order, 0)
+    };
     let total = HEADER_WORDS + NODE_WORDS * nodes.len() + RECORD_WORDS * records.len();
     let mut words = vec![0u32; HEADER_WORDS];
     words.reserve(total - HEADER_WORDS);
@@ -149,8 +158,8 @@ fn built(bottoms: &[Scene], placements: &[Placement]) -> Result<(Vec<u32>, Vec<u
     words[header::NODE_COUNT] = nodes.len() as u32;
     words[header::BOTTOM_COUNT] = bottoms.len() as u32;
     words[header::DEPTH] = depth;
-    // The root's box is the union of every record's box: the world bounds.
-    words[header::BOUNDS..header::BOUNDS + 6].copy_from_slice(&nodes[0][node::BOX..node::BOX + 6]);
+    // The root's slots' union is the union of every record's box: the world bounds.
+    words[header::BOUNDS..header::BOUNDS + 6].copy_from_slice(&box_words(bounds));
     words.extend(nodes.iter().flatten());
     words.extend(records.iter().flatten());
     Ok((words, order))
@@ -187,37 +196,86 @@ fn box_words(b: [Vec3; 2]) -> [u32; 6] {
     [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z].map(f32::to_bits)
 }
 
-/// Appends the subtree over the items that `keys` name to `nodes` in pre-order and its leaves'
-/// records to `records`; returns its depth below `depth`'s level (the deepest leaf's depth) and
-/// its box. The box of an interior node is its children's union, written once they are built,
-/// so that only a leaf reads its items (scattered in memory) and each level's scan for the
-/// split axis reads the keys in order; min and max are exact, so it is the union of the items'
-/// boxes all the same.
+/// An empty node: every slot's box min `+∞`, max `−∞`, every reference 0, count 0.
+fn empty_node() -> Node {
+    let mut nd = [0u32; NODE_WORDS];
+    for s in 0..WIDTH {
+        set_slot(&mut nd, s, [Vec3::INFINITY, Vec3::NEG_INFINITY], 0);
+    }
+    nd
+}
+
+/// Sets slot `s` of `nd`: its box and reference.
+fn set_slot(nd: &mut Node, s: usize, b: [Vec3; 2], reference: u32) {
+    for axis in 0..3 {
+        for side in 0..2 {
+            nd[node::BOXES + 8 * (2 * axis + side) + s] = b[side][axis].to_bits();
+        }
+    }
+    nd[node::REFS + s] = reference;
+}
+
+/// Appends the node over the items that `keys` name (more than one) to `nodes`, and its subtree
+/// after it in pre-order, and the records in the order a depth-first walk in slot order meets
+/// them to `records`; returns the subtree's depth below `depth`'s level and its box. The keys
+/// are split into up to eight groups by median splits, the largest group split next, along
+/// the longest axis of its centres; a group of one is a record slot, a larger one a node. A
+/// slot's box is its record's, or its node's slots' union (so only a record slot reads an item,
+/// scattered in memory; min and max are exact, so it is the union of the items' boxes all the
+/// same).
 fn subtree(
     items: &[Item],
     keys: &mut [Key],
-    nodes: &mut Vec<[u32; NODE_WORDS]>,
+    nodes: &mut Vec<Node>,
     records: &mut Vec<[u32; RECORD_WORDS]>,
     order: &mut Vec<u32>,
     depth: u32,
 ) -> (u32, [Vec3; 2]) {
     let at = nodes.len();
-    let mut nd = [0u32; NODE_WORDS];
-    if keys.len() <= LEAF_MAX {
-        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for k in keys.iter() {
-            let b = items[k.at as usize].bounds;
-            (lo, hi) = (lo.min(b[0]), hi.max(b[1]));
+    nodes.push(empty_node());
+    // The groups as ranges of `keys`, in slot order.
+    let mut groups = [(0usize, 0usize); WIDTH];
+    groups[0] = (0, keys.len());
+    let mut count = 1;
+    while count < WIDTH {
+        let (g, &(lo, hi)) = groups[..count]
+            .iter()
+            .enumerate()
+            .max_by_key(|(g, r)| (r.1 - r.0, usize::MAX - g))
+            .expect("a group");
+        if hi - lo < 2 {
+            break;
         }
-        nd[node::BOX..node::BOX + 6].copy_from_slice(&box_words([lo, hi]));
-        nd[node::CHILD_OR_FIRST] = records.len() as u32;
-        nd[node::COUNT] = keys.len() as u32;
-        nodes.push(nd);
-        records.extend(keys.iter().map(|k| items[k.at as usize].record));
-        order.extend(keys.iter().map(|k| k.at));
-        return (depth, [lo, hi]);
+        let mid = lo + median_split(&mut keys[lo..hi]);
+        groups.copy_within(g + 1..count, g + 2);
+        (groups[g], groups[g + 1]) = ((lo, mid), (mid, hi));
+        count += 1;
     }
-    nodes.push(nd);
+    let (mut deepest, mut lo, mut hi) = (depth, Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for (s, &(a, b)) in groups[..count].iter().enumerate() {
+        let (reference, bounds) = if b - a == 1 {
+            let k = keys[a].at as usize;
+            let reference = node::RECORD_REF | records.len() as u32;
+            records.push(items[k].record);
+            order.push(k as u32);
+            (reference, items[k].bounds)
+        } else {
+            let reference = nodes.len() as u32;
+            let (d, bounds) = subtree(items, &mut keys[a..b], nodes, records, order, depth + 1);
+            deepest = deepest.max(d);
+            (reference, bounds)
+        };
+        set_slot(&mut nodes[at], s, bounds, reference);
+        (lo, hi) = (lo.min(bounds[0]), hi.max(bounds[1]));
+    }
+    nodes[at][node::COUNT] = count as u32;
+    (deepest, [lo, hi])
+}
+
+/// Reorders `keys` (two or more) about the median of the longest axis of their centres and
+/// returns the median's index: the keys before it lie below it on that axis, those from it on
+/// above.
+fn median_split(keys: &mut [Key]) -> usize {
     let (mut clo, mut chi) = ([u32::MAX; 3], [0u32; 3]);
     for k in keys.iter() {
         for a in 0..3 {
@@ -228,13 +286,7 @@ fn subtree(
     let axis = extent.max_position();
     let mid = keys.len() / 2;
     keys.select_nth_unstable_by_key(mid, |k| k.centre[axis]);
-    let (below, above) = keys.split_at_mut(mid);
-    let (d0, b0) = subtree(items, below, nodes, records, order, depth + 1);
-    nodes[at][node::CHILD_OR_FIRST] = nodes.len() as u32;
-    let (d1, b1) = subtree(items, above, nodes, records, order, depth + 1);
-    let b = [b0[0].min(b1[0]), b0[1].max(b1[1])];
-    nodes[at][node::BOX..node::BOX + 6].copy_from_slice(&box_words(b));
-    (d0.max(d1), b)
+    mid
 }
 
 #[cfg(test)]

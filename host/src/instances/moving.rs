@@ -2,10 +2,10 @@
 //!
 //! [`TopLevel`] keeps the words [`super::top_level`] wrote and which placement each record holds.
 //! When the same placements move ([`TopLevel::move_to`]: as many, in the same order), the tree
-//! keeps its shape and its leaves their instances; each record is written anew (transform,
-//! inverse, bottom, id and world box, as the build writes them) and each node's box becomes its
-//! children's union again, from the last node to the first (the nodes are in pre-order, so a
-//! node's children come after it). No sort, and a placement that did not change (the same
+//! keeps its shape and each slot its instance or node; each record is written anew (transform,
+//! inverse, bottom, id and world box, as the build writes them) and each slot's box becomes its
+//! record's, or its node's slots' union, again, from the last node to the first (the nodes are
+//! in pre-order, so a node's children come after it). No sort, and a placement that did not change (the same
 //! transform, bottom scene and id, bit for bit) keeps its record as it is: for 10,000 instances
 //! that all move, a refit is about half the instructions of a build (`cargo run --release -p
 //! kdray --example instances`).
@@ -17,7 +17,7 @@
 //! multiplications, a third of a refit's time.
 //!
 //! A refitted tree answers exactly as a rebuilt one would (every node's box still contains its
-//! instances', so no hit is lost), but the instances that share a leaf may have drifted apart,
+//! instances', so no hit is lost), but the instances under one node may have drifted apart,
 //! so a ray enters more boxes. The refit keeps the sum of its nodes' box areas: once that sum
 //! exceeds [`REBUILD_GROWTH`] times the sum right after the last build, the tree is built anew
 //! instead.
@@ -180,43 +180,58 @@ fn half_area(b: [Vec3; 2]) -> f64 {
     e.x * e.y + e.y * e.z + e.z * e.x
 }
 
-/// The sum of the nodes' [`half_area`]s.
-fn area_sum(words: &[u32]) -> f64 {
-    let nodes = words[header::NODE_COUNT] as usize;
-    (0..nodes)
-        .map(|n| half_area(read_box(words, HEADER_WORDS + NODE_WORDS * n + node::BOX)))
-        .sum()
+/// Word `at` of node `n`.
+fn node_word(n: usize, at: usize) -> usize {
+    HEADER_WORDS + NODE_WORDS * n + at
 }
 
-/// Sets every node's box to the union of its records' boxes (a leaf) or of its children's (an
-/// interior node), last node first, and the header's bounds to the root's; returns the sum of
-/// the nodes' [`half_area`]s. The records start at word `first_record`.
+/// The union of node `n`'s used slots' boxes.
+fn node_box(words: &[u32], n: usize) -> [Vec3; 2] {
+    let count = words[node_word(n, node::COUNT)] as usize;
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for s in 0..count {
+        let f = |axis: usize, side: usize| {
+            f32::from_bits(words[node_word(n, node::BOXES + 8 * (2 * axis + side) + s)])
+        };
+        lo = lo.min(Vec3::new(f(0, 0), f(1, 0), f(2, 0)));
+        hi = hi.max(Vec3::new(f(0, 1), f(1, 1), f(2, 1)));
+    }
+    [lo, hi]
+}
+
+/// The sum of the nodes' [`half_area`]s (a node's box: its slots' union).
+fn area_sum(words: &[u32]) -> f64 {
+    let nodes = words[header::NODE_COUNT] as usize;
+    (0..nodes).map(|n| half_area(node_box(words, n))).sum()
+}
+
+/// Sets every slot's box to its record's box or to the union of its node's slots, last node
+/// first (the nodes are in pre-order: a node's children come after it), and the header's bounds
+/// to the root's union; returns the sum of the nodes' [`half_area`]s. The records start at word
+/// `first_record`.
 fn refit_boxes(words: &mut [u32], first_record: usize) -> f64 {
     let nodes = words[header::NODE_COUNT] as usize;
-    let node_at = |n: usize| HEADER_WORDS + NODE_WORDS * n;
-    let union = |a: [Vec3; 2], b: [Vec3; 2]| [a[0].min(b[0]), a[1].max(b[1])];
     let mut area = 0.0;
     for n in (0..nodes).rev() {
-        let at = node_at(n);
-        let (link, count) = (
-            words[at + node::CHILD_OR_FIRST] as usize,
-            words[at + node::COUNT],
-        );
-        let b = if count == 0 {
-            union(
-                read_box(words, node_at(n + 1) + node::BOX),
-                read_box(words, node_at(link) + node::BOX),
-            )
-        } else {
-            (link..link + count as usize)
-                .map(|r| read_box(words, first_record + RECORD_WORDS * r + record::BOX))
-                .reduce(union)
-                .unwrap_or([Vec3::ZERO; 2])
-        };
-        words[at + node::BOX..at + node::BOX + 6].copy_from_slice(&box_words(b));
-        area += half_area(b);
+        let count = words[node_word(n, node::COUNT)] as usize;
+        for s in 0..count {
+            let reference = words[node_word(n, node::REFS + s)];
+            let b = if reference & node::RECORD_REF != 0 {
+                let r = (reference & !node::RECORD_REF) as usize;
+                read_box(words, first_record + RECORD_WORDS * r + record::BOX)
+            } else {
+                node_box(words, reference as usize)
+            };
+            for axis in 0..3 {
+                for side in 0..2 {
+                    words[node_word(n, node::BOXES + 8 * (2 * axis + side) + s)] =
+                        b[side][axis].to_bits();
+                }
+            }
+        }
+        area += half_area(node_box(words, n));
     }
-    let root = read_box(words, node_at(0) + node::BOX);
+    let root = node_box(words, 0);
     words[header::BOUNDS..header::BOUNDS + 6].copy_from_slice(&box_words(root));
     area
 }
