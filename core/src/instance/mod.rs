@@ -114,6 +114,7 @@
 //! that `t`.
 
 pub mod affine;
+mod cull;
 mod error;
 pub mod packet;
 pub mod stream;
