@@ -26,13 +26,13 @@ use wide::f32x8;
 /// The packet's bounds, set up once a packet.
 pub(super) struct Cull {
     /// Per axis, the origin bound subtracted from the near plane and from the far plane.
-    origin: [[f32x8; 2]; 3],
+    origin: [[f32; 2]; 3],
     /// Per axis, the least and the largest reciprocal.
-    inv: [[f32x8; 2]; 3],
+    inv: [[f32; 2]; 3],
     /// Per axis, the word offsets of the near and the far plane's lanes in a node.
     planes: [[usize; 2]; 3],
-    tmin: f32x8,
-    tmax: f32x8,
+    tmin: f32,
+    tmax: f32,
 }
 
 impl Cull {
@@ -50,11 +50,11 @@ impl Cull {
         let i = [rays.inv_dir.x, rays.inv_dir.y, rays.inv_dir.z];
         let (tmin, tmax) = (least(rays.tmin), largest(rays.tmax));
         let mut cull = Self {
-            origin: [[f32x8::ZERO; 2]; 3],
-            inv: [[f32x8::ZERO; 2]; 3],
+            origin: [[0.0; 2]; 3],
+            inv: [[0.0; 2]; 3],
             planes: [[0; 2]; 3],
-            tmin: f32x8::splat(tmin),
-            tmax: f32x8::splat(tmax),
+            tmin,
+            tmax,
         };
         for a in 0..3 {
             let (o_min, o_max) = span(o[a]);
@@ -65,13 +65,13 @@ impl Cull {
             // Boxes' low planes are words 8·(2·axis) + slot, high planes 8·(2·axis + 1) + slot.
             let (low, high) = (node::BOXES + 16 * a, node::BOXES + 16 * a + 8);
             (cull.planes[a], cull.origin[a]) = if i_min > 0.0 {
-                ([low, high], [o_max, o_min].map(f32x8::splat))
+                ([low, high], [o_max, o_min])
             } else if i_max < 0.0 {
-                ([high, low], [o_min, o_max].map(f32x8::splat))
+                ([high, low], [o_min, o_max])
             } else {
                 return None;
             };
-            cull.inv[a] = [i_min, i_max].map(f32x8::splat);
+            cull.inv[a] = [i_min, i_max];
         }
         Some(cull)
     }
@@ -83,11 +83,11 @@ impl Cull {
             let w: [u32; WIDTH] = nd[at..at + WIDTH].try_into().unwrap_or([0; WIDTH]);
             f32x8::from(w.map(f32::from_bits))
         };
-        let (mut entry, mut exit) = (self.tmin, self.tmax);
+        let (mut entry, mut exit) = (f32x8::splat(self.tmin), f32x8::splat(self.tmax));
         for a in 0..3 {
-            let [i0, i1] = self.inv[a];
-            let near = lanes(self.planes[a][0]) - self.origin[a][0];
-            let far = lanes(self.planes[a][1]) - self.origin[a][1];
+            let [i0, i1] = self.inv[a].map(f32x8::splat);
+            let near = lanes(self.planes[a][0]) - f32x8::splat(self.origin[a][0]);
+            let far = lanes(self.planes[a][1]) - f32x8::splat(self.origin[a][1]);
             let near = (near * i0).fast_min(near * i1);
             let far = (far * i0).fast_max(far * i1);
             // The lane test's widening, outward.

@@ -444,9 +444,10 @@ impl InstancedScene<'_, '_> {
         let slabs = PacketSlabs::new(rays);
         let cull = Cull::new(rays, live);
         let (mut current, mut lanes) = (0u32, live);
-        // A pending slot, the lanes that entered it and their entry distances. At most seven a
-        // node on the way down: the validated depth bounds the stack.
-        let mut stack: heapless::Vec<(u32, u32, L), STACK> = heapless::Vec::new();
+        // A pending slot, the lanes that entered it, their least entry distance and each one's.
+        // At most eight a node, one of them popped at once: the validated depth bounds the
+        // stack.
+        let mut stack: heapless::Vec<(u32, u32, f32, L), { STACK + 1 }> = heapless::Vec::new();
         loop {
             if current & node::RECORD_REF != 0 {
                 let open = lanes & visit.open();
@@ -457,10 +458,9 @@ impl InstancedScene<'_, '_> {
                 let nd: &Node = &self.nodes[current as usize];
                 let here = L::mask_from_bits(lanes);
                 let tmax = visit.tmax();
-                // The slots some lane enters: (the nearest lane's entry, reference, lanes,
-                // entries), sorted farthest first as they come.
-                let mut sorted = [(0.0f32, 0u32, 0u32, L::splat(0.0)); WIDTH];
-                let mut k = 0;
+                // The slots some lane enters go on the stack, ordered among themselves by
+                // the least entry of their lanes, the nearest on top: popped next.
+                let below = stack.len();
                 let slots = match &cull {
                     Some(cull) => cull.slots(nd),
                     None => (1u32 << nd[node::COUNT].min(WIDTH as u32)) - 1,
@@ -472,26 +472,17 @@ impl InstancedScene<'_, '_> {
                         continue;
                     }
                     let near = least(m.select(t, L::splat(f32::INFINITY)));
-                    let item = (near, nd[node::REFS + s], bits, t);
-                    let mut j = k;
-                    while j > 0 && sorted[j - 1].0 < near {
-                        sorted[j] = sorted[j - 1];
+                    let _ = stack.push((nd[node::REFS + s], bits, near, t));
+                    let mut j = stack.len() - 1;
+                    while j > below && stack[j - 1].2 < near {
+                        stack.swap(j - 1, j);
                         j -= 1;
                     }
-                    sorted[j] = item;
-                    k += 1;
-                }
-                if k > 0 {
-                    for &(_, r, l, t) in &sorted[..k - 1] {
-                        let _ = stack.push((r, l, t));
-                    }
-                    (current, lanes) = (sorted[k - 1].1, sorted[k - 1].2);
-                    continue;
                 }
             }
             // The next pending slot that some lane enters before its closest hit so far.
             loop {
-                let Some((n, l, t)) = stack.pop() else {
+                let Some((n, l, _, t)) = stack.pop() else {
                     return;
                 };
                 let l = l & visit.open() & (!t.gt(visit.tmax())).bitmask();
