@@ -91,7 +91,8 @@ impl Cull {
             let near = (near * i0).fast_min(near * i1);
             let far = (far * i0).fast_max(far * i1);
             // The lane test's widening, outward.
-            let near = (near * f32x8::splat(1.0 - WIDEN)).fast_min(near * f32x8::splat(1.0 + WIDEN))
+            let near = (near * f32x8::splat(1.0 - WIDEN))
+                .fast_min(near * f32x8::splat(1.0 + WIDEN))
                 - f32x8::splat(TINY);
             let far = (far * f32x8::splat(1.0 - WIDEN)).fast_max(far * f32x8::splat(1.0 + WIDEN))
                 + f32x8::splat(TINY);

@@ -595,6 +595,9 @@ mod tests {
                 }
             }
         }
-        assert!(kept > 10_000 && culled > 10_000, "{kept} kept, {culled} culled");
+        assert!(
+            kept > 10_000 && culled > 10_000,
+            "{kept} kept, {culled} culled"
+        );
     }
 }

@@ -32,7 +32,8 @@ use super::{Affine, InstancedScene, Node, STACK, WIDTH, affine_at, node, record,
 use crate::format::Scene;
 use crate::ray::{Hit, Ray};
 use crate::traverse::wide::walk::{RaySetup, slab};
-use crate::traverse::{Mode, TINY, Triangles, WIDEN, Watertight, widen};
+use crate::traverse::{Mode, Triangles, Watertight, widen};
+use glam::Vec3;
 
 /// The closest hit of a ray through a top level.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -123,12 +124,6 @@ struct Slabs {
     dir: [f32; 3],
     inv: [f32; 3],
     tmin: f32,
-    /// Every component's reciprocal finite and not zero (no `±0`, no subnormal): then
-    /// [`Slabs::enter`] takes [`Slabs::enter_plain`], with no branch per axis.
-    plain: bool,
-    /// Per axis, the word offset (0 or 3) of the plane a box is entered by: the min plane where
-    /// the direction is positive, the max plane where it is negative.
-    near: [usize; 3],
 }
 
 impl Slabs {
@@ -141,8 +136,6 @@ impl Slabs {
             dir,
             inv,
             tmin: ray.tmin,
-            plain: inv.iter().all(|i| i.is_finite() && *i != 0.0),
-            near: inv.map(|i| if i < 0.0 { 3 } else { 0 }),
         }
     }
 
@@ -150,9 +143,6 @@ impl Slabs {
     /// both slab distances [`widen`]ed outward, or `None` for a miss.
     #[inline(always)]
     fn enter(&self, b: &[u32], tmax: f32) -> Option<f32> {
-        if self.plain {
-            return self.enter_plain(b, tmax);
-        }
         let (mut t0, mut t1) = (self.tmin, tmax);
         for a in 0..3 {
             let (lo, hi) = (f32::from_bits(b[a]), f32::from_bits(b[3 + a]));
@@ -181,33 +171,6 @@ impl Slabs {
         Some(t0)
     }
 
-    /// [`Slabs::enter`] for a ray whose reciprocals are all finite and not zero: the same
-    /// distances, decided by the same comparisons, in fewer instructions (the top level's box
-    /// tests were 75 % of a single ray's instructions through 100 bunnies). Each axis's nearer
-    /// plane is known from the direction's sign (rounding is monotone, so `(lo − o)·inv ≤
-    /// (hi − o)·inv` for `inv > 0` and a box with `lo ≤ hi`, as validation requires); no value
-    /// here is NaN (finite box and origin, finite reciprocals), so `min` and `max` are plain
-    /// comparisons, which may differ from `f32::min`/`max` only in the sign of a zero — and a
-    /// zero's sign changes no comparison, nor `widen`'s result (`±0 ∓ TINY`).
-    #[inline(always)]
-    fn enter_plain(&self, b: &[u32], tmax: f32) -> Option<f32> {
-        let min = |a: f32, b: f32| if a < b { a } else { b };
-        let max = |a: f32, b: f32| if a > b { a } else { b };
-        let (mut t0, mut t1) = (self.tmin, tmax);
-        for a in 0..3 {
-            let n = self.near[a];
-            let (o, inv) = (self.origin[a], self.inv[a]);
-            let near = (f32::from_bits(b[n + a]) - o) * inv;
-            let far = (f32::from_bits(b[3 - n + a]) - o) * inv;
-            // `widen(near).0` and `widen(far).1`.
-            let (n0, n1) = (near * (1.0 - WIDEN), near * (1.0 + WIDEN));
-            let (f0, f1) = (far * (1.0 - WIDEN), far * (1.0 + WIDEN));
-            t0 = max(t0, min(n0, n1) - TINY);
-            t1 = min(t1, max(f0, f1) + TINY);
-        }
-        (t0 <= t1).then_some(t0)
-    }
-
     /// [`Slabs::enter`] for each used slot of `nd`: the mask of slots entered and their entry
     /// distances, as [`slab`] returns them.
     fn enter_slots(&self, nd: &Node, tmax: f32) -> (u32, [f32; WIDTH]) {
@@ -221,6 +184,16 @@ impl Slabs {
         }
         (mask, entry)
     }
+}
+
+/// How the walk tests a node's boxes, chosen once a ray. One a walk, on the stack (the core has
+/// no allocator to box the larger variant in).
+#[allow(clippy::large_enum_variant)]
+enum Test {
+    /// All eight in lanes.
+    Lanes(RaySetup),
+    /// Slot by slot.
+    Slots(Slabs),
 }
 
 /// What the walk does with each instance it enters; returns the closest `t` so far (the walk
@@ -319,16 +292,22 @@ impl InstancedScene<'_, '_> {
     }
 
     /// The front-to-back walk of the tree (see the module doc): a node's eight boxes in one
-    /// slab test of eight lanes ([`slab`], the widened distances of [`Slabs::enter_plain`] lane
-    /// by lane) for a ray whose reciprocals are all finite and not zero, slot by slot
-    /// ([`Slabs::enter`]) for the others.
+    /// slab test of eight lanes for a ray whose reciprocals are all finite and not zero
+    /// ([`slab`] in watertight mode: each lane the distances [`Slabs::enter`] computes, widened
+    /// alike, with the near plane picked by the direction's sign instead of a comparison, the
+    /// same plane for such a ray), slot by slot by [`Slabs::enter`] for the others (a `±0` or
+    /// subnormal component: the lanes' `0·∞` would be NaN).
     fn walk<V: Visit>(&self, ray: &Ray, visit: &mut V) {
         if !ray.is_finite() {
             return;
         }
         let mut tmax = ray.tmax;
-        let slabs = Slabs::new(ray);
-        let setup = slabs.plain.then(|| RaySetup::new(ray));
+        let a = ray.dir.recip().abs();
+        let test = if a.cmplt(Vec3::INFINITY).all() && a.cmpne(Vec3::ZERO).all() {
+            Test::Lanes(RaySetup::new(ray))
+        } else {
+            Test::Slots(Slabs::new(ray))
+        };
         let mut stack: heapless::Vec<(u32, f32), STACK> = heapless::Vec::new();
         let mut current = 0u32;
         loop {
@@ -340,9 +319,9 @@ impl InstancedScene<'_, '_> {
                 tmax = t;
             } else {
                 let nd: &Node = &self.nodes[current as usize];
-                let (mask, entry) = match &setup {
-                    Some(setup) => slab::<Watertight<Triangles>>(nd, setup, tmax),
-                    None => slabs.enter_slots(nd, tmax),
+                let (mask, entry) = match &test {
+                    Test::Lanes(setup) => slab::<Watertight<Triangles>>(nd, setup, tmax),
+                    Test::Slots(slabs) => slabs.enter_slots(nd, tmax),
                 };
                 if mask.is_power_of_two() {
                     current = nd[node::REFS + mask.trailing_zeros() as usize];
