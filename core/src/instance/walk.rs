@@ -6,11 +6,11 @@
 //! before them), each box entered as the watertight walk enters the scene box
 //! ([`crate::traverse::clip_to_box_in`], both slab distances widened outward; here with the
 //! direction's reciprocals computed once a ray, `Slabs`, and a node's eight boxes tested in one
-//! pass of eight lanes where the reciprocals are finite and not zero). At an instance, the ray is moved into the bottom scene:
-//! origin by the stored inverse ([`Affine::point`]), direction by its linear part
-//! ([`Affine::vector`]), **not normalized**, so a point at parameter `t` on the moved ray is the
-//! image of the world ray's point at the same `t`: `t` stays in world units and the closest hits
-//! of different instances compare as they are. The bottom scene's own walk
+//! pass of eight lanes where the reciprocals are finite and not zero). At an instance, the ray
+//! is moved into the bottom scene: origin by the stored inverse ([`Affine::point`]), direction
+//! by its linear part ([`Affine::vector`]), **not normalized**, so a point at parameter `t` on
+//! the moved ray is the image of the world ray's point at the same `t`: `t` stays in world units
+//! and the closest hits of different instances compare as they are. The bottom scene's own walk
 //! ([`Scene::intersect_in`], [`Scene::occluded_in`]) then runs over `(tmin, closest so far)`.
 //!
 //! One deviation from moving the direction alone: the triangle kernels' parallel test is set for
