@@ -115,6 +115,8 @@
 
 pub mod affine;
 mod cull;
+#[cfg(test)]
+mod cull_tests;
 mod error;
 pub mod packet;
 pub mod stream;
