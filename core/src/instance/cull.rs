@@ -20,6 +20,7 @@
 use super::{Node, WIDTH, node};
 use crate::simd::lanes::Lanes;
 use crate::simd::packet::RayPacket;
+use crate::traverse::wide::walk::lanes;
 use crate::traverse::{TINY, WIDEN};
 use wide::f32x8;
 
@@ -79,15 +80,11 @@ impl Cull {
     /// The slots of `nd` (among its first `count`) that some lane may enter.
     #[inline(always)]
     pub(super) fn slots(&self, nd: &Node) -> u32 {
-        let lanes = |at: usize| {
-            let w: [u32; WIDTH] = nd[at..at + WIDTH].try_into().unwrap_or([0; WIDTH]);
-            f32x8::from(w.map(f32::from_bits))
-        };
         let (mut entry, mut exit) = (f32x8::splat(self.tmin), f32x8::splat(self.tmax));
         for a in 0..3 {
             let [i0, i1] = self.inv[a].map(f32x8::splat);
-            let near = lanes(self.planes[a][0]) - f32x8::splat(self.origin[a][0]);
-            let far = lanes(self.planes[a][1]) - f32x8::splat(self.origin[a][1]);
+            let near = lanes(nd, self.planes[a][0]) - f32x8::splat(self.origin[a][0]);
+            let far = lanes(nd, self.planes[a][1]) - f32x8::splat(self.origin[a][1]);
             let near = (near * i0).fast_min(near * i1);
             let far = (far * i0).fast_max(far * i1);
             // The lane test's widening, outward.

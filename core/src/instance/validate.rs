@@ -3,8 +3,9 @@
 
 use super::{
     HEADER_WORDS, InstanceError, InstancedScene, MAGIC, MAX_DEPTH, NODE_WORDS, Node, RECORD_WORDS,
-    VERSION, WIDTH, affine_at, box_at, header, node, record, slot_words,
+    VERSION, WIDTH, affine_at, box_at, header, node, record,
 };
+use crate::traverse::wide::{EMPTY_BOX, slot_box};
 use crate::format::{self, Scene, checksum};
 use glam::Vec3;
 
@@ -186,7 +187,7 @@ fn check_tree(
             continue;
         }
         top.1 += 1;
-        let b = box_at(&slot_words(nd, slot));
+        let b = slot_box(nd, slot);
         if !is_box(b) || !inside(b, parent) {
             return Err(InstanceError::BadNodeBox { node: n as u32 });
         }
@@ -231,12 +232,7 @@ fn check_tree(
 fn check_node(nodes: &[Node], n: usize) -> Result<(), InstanceError> {
     let nd = &nodes[n];
     let count = nd[node::COUNT] as usize;
-    let empty = |s: usize| {
-        let w = slot_words(nd, s);
-        w[..3].iter().all(|&x| x == f32::INFINITY.to_bits())
-            && w[3..].iter().all(|&x| x == f32::NEG_INFINITY.to_bits())
-            && nd[node::REFS + s] == 0
-    };
+    let empty = |s: usize| slot_box(nd, s) == EMPTY_BOX && nd[node::REFS + s] == 0;
     if !(1..=WIDTH).contains(&count)
         || !(count..WIDTH).all(empty)
         || nd[node::RESERVED].iter().any(|&w| w != 0)

@@ -45,6 +45,7 @@ use kdray_core::instance::{
     VERSION, WIDTH, header, node, record,
 };
 use kdray_core::traverse::Mode;
+use kdray_core::traverse::wide::{EMPTY_BOX, set_slot_box};
 
 mod moving;
 pub use moving::{Moved, REBUILD_GROWTH, TopLevel};
@@ -200,18 +201,14 @@ fn box_words(b: [Vec3; 2]) -> [u32; 6] {
 fn empty_node() -> Node {
     let mut nd = [0u32; NODE_WORDS];
     for s in 0..WIDTH {
-        set_slot(&mut nd, s, [Vec3::INFINITY, Vec3::NEG_INFINITY], 0);
+        set_slot_box(&mut nd, s, EMPTY_BOX);
     }
     nd
 }
 
 /// Sets slot `s` of `nd`: its box and reference.
 fn set_slot(nd: &mut Node, s: usize, b: [Vec3; 2], reference: u32) {
-    for axis in 0..3 {
-        for side in 0..2 {
-            nd[node::BOXES + 8 * (2 * axis + side) + s] = b[side][axis].to_bits();
-        }
-    }
+    set_slot_box(nd, s, b);
     nd[node::REFS + s] = reference;
 }
 

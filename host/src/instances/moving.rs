@@ -25,7 +25,8 @@
 use super::{Placement, box_words, built, item};
 use glam::Vec3;
 use kdray_core::format::{Scene, seal};
-use kdray_core::instance::{HEADER_WORDS, NODE_WORDS, RECORD_WORDS, header, node, record};
+use kdray_core::instance::{HEADER_WORDS, NODE_WORDS, Node, RECORD_WORDS, header, node, record};
+use kdray_core::traverse::wide::{EMPTY_BOX, set_slot_box, slot_box};
 
 /// How far the sum of the nodes' box areas may grow by refits before the tree is rebuilt.
 pub const REBUILD_GROWTH: f64 = 1.5;
@@ -180,58 +181,48 @@ fn half_area(b: [Vec3; 2]) -> f64 {
     e.x * e.y + e.y * e.z + e.z * e.x
 }
 
-/// Word `at` of node `n`.
-fn node_word(n: usize, at: usize) -> usize {
-    HEADER_WORDS + NODE_WORDS * n + at
+/// The union of `nd`'s used slots' boxes.
+fn node_box(nd: &Node) -> [Vec3; 2] {
+    (0..nd[node::COUNT] as usize)
+        .map(|s| slot_box(nd, s))
+        .fold(EMPTY_BOX, |a, b| [a[0].min(b[0]), a[1].max(b[1])])
 }
 
-/// The union of node `n`'s used slots' boxes.
-fn node_box(words: &[u32], n: usize) -> [Vec3; 2] {
-    let count = words[node_word(n, node::COUNT)] as usize;
-    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for s in 0..count {
-        let f = |axis: usize, side: usize| {
-            f32::from_bits(words[node_word(n, node::BOXES + 8 * (2 * axis + side) + s)])
-        };
-        lo = lo.min(Vec3::new(f(0, 0), f(1, 0), f(2, 0)));
-        hi = hi.max(Vec3::new(f(0, 1), f(1, 1), f(2, 1)));
-    }
-    [lo, hi]
+/// The nodes of the top level `words`.
+fn nodes_of(words: &[u32]) -> &[Node] {
+    let n = words[header::NODE_COUNT] as usize;
+    words[HEADER_WORDS..HEADER_WORDS + NODE_WORDS * n]
+        .as_chunks()
+        .0
 }
 
 /// The sum of the nodes' [`half_area`]s (a node's box: its slots' union).
 fn area_sum(words: &[u32]) -> f64 {
-    let nodes = words[header::NODE_COUNT] as usize;
-    (0..nodes).map(|n| half_area(node_box(words, n))).sum()
+    nodes_of(words).iter().map(|nd| half_area(node_box(nd))).sum()
 }
 
 /// Sets every slot's box to its record's box or to the union of its node's slots, last node
 /// first (the nodes are in pre-order: a node's children come after it), and the header's bounds
 /// to the root's union; returns the sum of the nodes' [`half_area`]s. The records start at word
-/// `first_record`.
+/// `first_record`, right after the nodes.
 fn refit_boxes(words: &mut [u32], first_record: usize) -> f64 {
-    let nodes = words[header::NODE_COUNT] as usize;
+    let (head, records) = words.split_at_mut(first_record);
+    let (nodes, _) = head[HEADER_WORDS..].as_chunks_mut::<NODE_WORDS>();
     let mut area = 0.0;
-    for n in (0..nodes).rev() {
-        let count = words[node_word(n, node::COUNT)] as usize;
-        for s in 0..count {
-            let reference = words[node_word(n, node::REFS + s)];
+    for n in (0..nodes.len()).rev() {
+        for s in 0..nodes[n][node::COUNT] as usize {
+            let reference = nodes[n][node::REFS + s];
             let b = if reference & node::RECORD_REF != 0 {
                 let r = (reference & !node::RECORD_REF) as usize;
-                read_box(words, first_record + RECORD_WORDS * r + record::BOX)
+                read_box(records, RECORD_WORDS * r + record::BOX)
             } else {
-                node_box(words, reference as usize)
+                node_box(&nodes[reference as usize])
             };
-            for axis in 0..3 {
-                for side in 0..2 {
-                    words[node_word(n, node::BOXES + 8 * (2 * axis + side) + s)] =
-                        b[side][axis].to_bits();
-                }
-            }
+            set_slot_box(&mut nodes[n], s, b);
         }
-        area += half_area(node_box(words, n));
+        area += half_area(node_box(&nodes[n]));
     }
-    let root = node_box(words, 0);
-    words[header::BOUNDS..header::BOUNDS + 6].copy_from_slice(&box_words(root));
+    let root = node_box(&nodes[0]);
+    head[header::BOUNDS..header::BOUNDS + 6].copy_from_slice(&box_words(root));
     area
 }

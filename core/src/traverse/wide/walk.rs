@@ -65,7 +65,7 @@ impl RaySetup {
 
 /// The eight lanes of `node` starting at word `at`.
 #[inline(always)]
-fn lanes(node: &WideNode, at: usize) -> f32x8 {
+pub(crate) fn lanes(node: &WideNode, at: usize) -> f32x8 {
     let w: [u32; 8] = node[at..at + 8].try_into().unwrap_or([0; 8]);
     f32x8::from(w.map(f32::from_bits))
 }
