@@ -146,8 +146,28 @@ pub const RECORD_WORDS: usize = 32;
 /// The deepest tree over the instances the walks' fixed stacks accept (the builder's median
 /// splits into eight reach depth 11 for 2³² instances).
 pub const MAX_DEPTH: usize = 32;
-/// The walks' stacks: at most seven pending slots for each node on the way down.
-pub(crate) const STACK: usize = (WIDTH - 1) * (MAX_DEPTH + 1);
+/// The walks' stacks: at most seven pending slots for each node on the way down, and the eighth
+/// a node pushes before it pops the nearest ([`push_in_order`]).
+pub(crate) const STACK: usize = (WIDTH - 1) * (MAX_DEPTH + 1) + 1;
+
+/// Pushes `item` onto the entries a node has pushed so far (those from `below` on), keeping them
+/// in order of `key`, the least on top: popped next. A push beyond the capacity is dropped, which
+/// validation's depth bound rules out ([`STACK`]).
+#[inline(always)]
+fn push_in_order<T: Copy>(
+    stack: &mut heapless::Vec<T, STACK>,
+    below: usize,
+    item: T,
+    key: impl Fn(&T) -> f32,
+) {
+    let k = key(&item);
+    let _ = stack.push(item);
+    let mut j = stack.len() - 1;
+    while j > below && key(&stack[j - 1]) < k {
+        stack.swap(j - 1, j);
+        j -= 1;
+    }
+}
 
 /// Header word indices.
 pub mod header {

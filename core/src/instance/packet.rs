@@ -28,7 +28,8 @@
 use super::cull::{Cull, least};
 use super::walk::{into_instance, unit_scale};
 use super::{
-    Affine, InstanceHit, InstancedScene, Node, STACK, WIDTH, affine_at, node, record, slot_words,
+    Affine, InstanceHit, InstancedScene, Node, STACK, WIDTH, affine_at, node, push_in_order,
+    record, slot_words,
 };
 use crate::format::Scene;
 use crate::simd::lanes::{Lanes, Vec3x, set_lanes};
@@ -445,9 +446,8 @@ impl InstancedScene<'_, '_> {
         let cull = Cull::new(rays, live);
         let (mut current, mut lanes) = (0u32, live);
         // A pending slot, the lanes that entered it, their least entry distance and each one's.
-        // At most eight a node, one of them popped at once: the validated depth bounds the
-        // stack.
-        let mut stack: heapless::Vec<(u32, u32, f32, L), { STACK + 1 }> = heapless::Vec::new();
+        // The validated depth bounds the stack ([`STACK`]).
+        let mut stack: heapless::Vec<(u32, u32, f32, L), STACK> = heapless::Vec::new();
         loop {
             if current & node::RECORD_REF != 0 {
                 let open = lanes & visit.open();
@@ -472,12 +472,12 @@ impl InstancedScene<'_, '_> {
                         continue;
                     }
                     let near = least(m.select(t, L::splat(f32::INFINITY)));
-                    let _ = stack.push((nd[node::REFS + s], bits, near, t));
-                    let mut j = stack.len() - 1;
-                    while j > below && stack[j - 1].2 < near {
-                        stack.swap(j - 1, j);
-                        j -= 1;
-                    }
+                    push_in_order(
+                        &mut stack,
+                        below,
+                        (nd[node::REFS + s], bits, near, t),
+                        |e| e.2,
+                    );
                 }
             }
             // The next pending slot that some lane enters before its closest hit so far.

@@ -5,8 +5,8 @@ use super::{
     HEADER_WORDS, InstanceError, InstancedScene, MAGIC, MAX_DEPTH, NODE_WORDS, Node, RECORD_WORDS,
     VERSION, WIDTH, affine_at, box_at, header, node, record,
 };
-use crate::traverse::wide::{EMPTY_BOX, slot_box};
 use crate::format::{self, Scene, checksum};
+use crate::traverse::wide::{EMPTY_BOX, slot_box};
 use glam::Vec3;
 
 /// Whether `b` is finite with `min ≤ max` on every axis.

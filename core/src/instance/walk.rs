@@ -28,7 +28,9 @@
 //! 10³⁴) is taken as unbounded on that side by the bottom walk; closest hits are then checked
 //! against the world range again, any hit is not.
 
-use super::{Affine, InstancedScene, Node, STACK, WIDTH, affine_at, node, record, slot_words};
+use super::{
+    Affine, InstancedScene, Node, STACK, WIDTH, affine_at, node, push_in_order, record, slot_words,
+};
 use crate::format::Scene;
 use crate::ray::{Hit, Ray};
 use crate::traverse::wide::walk::{RaySetup, slab};
@@ -327,9 +329,13 @@ impl InstancedScene<'_, '_> {
                     current = nd[node::REFS + mask.trailing_zeros() as usize];
                     continue;
                 }
-                if mask != 0 {
-                    current = push_farther(nd, mask, &entry, &mut stack);
-                    continue;
+                // Two or more: all pushed, ordered by entry, the nearest popped below.
+                let below = stack.len();
+                let mut m = mask;
+                while m != 0 {
+                    let s = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    push_in_order(&mut stack, below, (nd[node::REFS + s], entry[s]), |e| e.1);
                 }
             }
             // The nearest pending slot entered before the closest hit so far.
@@ -345,36 +351,4 @@ impl InstancedScene<'_, '_> {
             }
         }
     }
-}
-
-/// Of the slots entered (`mask`, two or more) at their `entry` distances: pushes all but the
-/// nearest, farthest first so that they pop nearest first, and returns the nearest's reference.
-/// At most seven a node: validation's depth bounds the stack, and a push never fails.
-#[inline(always)]
-fn push_farther(
-    nd: &Node,
-    mask: u32,
-    entry: &[f32; WIDTH],
-    stack: &mut heapless::Vec<(u32, f32), STACK>,
-) -> u32 {
-    // Insertion sort of (entry, reference), farthest first; equal entries keep slot order.
-    let mut sorted = [(0.0f32, 0u32); WIDTH];
-    let mut k = 0;
-    let mut m = mask;
-    while m != 0 {
-        let s = m.trailing_zeros() as usize;
-        m &= m - 1;
-        let item = (entry[s], nd[node::REFS + s]);
-        let mut j = k;
-        while j > 0 && sorted[j - 1].0 < item.0 {
-            sorted[j] = sorted[j - 1];
-            j -= 1;
-        }
-        sorted[j] = item;
-        k += 1;
-    }
-    for &(t, r) in &sorted[..k - 1] {
-        let _ = stack.push((r, t));
-    }
-    sorted[k - 1].1
 }

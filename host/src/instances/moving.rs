@@ -198,7 +198,10 @@ fn nodes_of(words: &[u32]) -> &[Node] {
 
 /// The sum of the nodes' [`half_area`]s (a node's box: its slots' union).
 fn area_sum(words: &[u32]) -> f64 {
-    nodes_of(words).iter().map(|nd| half_area(node_box(nd))).sum()
+    nodes_of(words)
+        .iter()
+        .map(|nd| half_area(node_box(nd)))
+        .sum()
 }
 
 /// Sets every slot's box to its record's box or to the union of its node's slots, last node
