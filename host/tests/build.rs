@@ -4,8 +4,8 @@
 
 use glam::Vec3;
 use kdray::build::{
-    BuildNode, BuildParams, DEEP_LEAF_PRIMS, DEEP_LEVELS, FAST_REFERENCE_BUDGET, Quality,
-    REFERENCE_BUDGET, build,
+    BuildNode, BuildParams, DEEP_LEAF_PRIMS, DEEP_LEVELS, FAST_DEEP_LEAF_PRIMS,
+    FAST_REFERENCE_BUDGET, Quality, REFERENCE_BUDGET, build,
 };
 use kdray::geometry::Geometry;
 use std::collections::BTreeSet;
@@ -139,4 +139,60 @@ fn a_soup_of_crossing_triangles_stays_within_the_reference_budget() {
         let parallel = build(&geom, &params, None).unwrap();
         assert!(tree.root == parallel.root, "{quality:?}");
     }
+}
+
+/// The largest leaf of the tree.
+fn largest_leaf(node: &BuildNode) -> usize {
+    match node {
+        BuildNode::Leaf(prims) => prims.len(),
+        BuildNode::Interior { children, .. } => {
+            largest_leaf(&children[0]).max(largest_leaf(&children[1]))
+        }
+    }
+}
+
+/// `fast` on a scene of separate objects: 216 spheres scattered over a box, each cut-off of the
+/// empty space between them a level of the automatic limit's. Past that limit only nodes of more
+/// than `FAST_DEEP_LEAF_PRIMS` triangles split, and they may go down to the core's stack, so no
+/// leaf keeps spheres' worth of triangles (with no levels past the limit, as before, the largest
+/// held 528, about two spheres; here 40).
+#[test]
+fn fast_trees_of_scattered_objects_split_crowded_nodes_past_the_automatic_limit() {
+    let mut seed = 11u32;
+    let mut next = move || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32
+    };
+    let mut triangles = Vec::new();
+    for i in 0..216 {
+        let cell = Vec3::new((i % 6) as f32, ((i / 6) % 6) as f32, (i / 36) as f32);
+        let centre = 10.0 * cell + Vec3::new(next(), next(), next()) * 6.0;
+        triangles.extend(meshes::uv_sphere(12, centre, 0.5 + 2.0 * next()));
+    }
+    let geom = Geometry {
+        triangles,
+        ..Geometry::default()
+    };
+    let params = BuildParams {
+        parallel: false,
+        ..BuildParams::grouped().with_quality(Quality::Fast)
+    };
+    assert_eq!(params.deep_leaf_prims, FAST_DEEP_LEAF_PRIMS);
+    let (soft, hard) = params.depth_limits(geom.triangles.len());
+    assert_eq!(hard, kdray_core::format::MAX_DEPTH as u32);
+    let tree = build(&geom, &params, None).unwrap();
+    let mut deep_interiors = 0;
+    let (depth, _) = walk(&tree.root, 0, &mut |d, prims| {
+        if d >= soft {
+            deep_interiors += 1;
+            assert!(
+                prims > FAST_DEEP_LEAF_PRIMS,
+                "an interior node at depth {d} (limit {soft}) holds only {prims} triangles"
+            );
+        }
+    });
+    assert!(depth <= hard, "depth {depth} past the stack's {hard}");
+    let largest = largest_leaf(&tree.root);
+    assert!(largest <= 64, "a leaf of {largest} triangles");
+    assert!(deep_interiors > 0, "no node split past depth {soft}");
 }

@@ -305,8 +305,8 @@ class Scene:
       tree), ``leaves`` (``'list'``: index lists, whose triangles the walk gathers four at a
       time into one SIMD test; or ``'groups'``: the triangles copied four to a group, faster
       single rays for two to four times the memory) and ``quality`` (``'fast'``: binned planes,
-      a triangle referenced at most twice over along a path, no levels past the depth limit —
-      the build for a first answer; or ``'high'``: the exact sweep at every node and level, a
+      a triangle referenced at most twice over along a path, past the depth limit only nodes
+      of more than 32 triangles split — the build for a first answer; or ``'high'``: the exact sweep at every node and level, a
       build several times slower of a tree that traces faster — with ``leaves='groups'`` the
       choice for many millions of rays; docs/BUILD.md, "The first answer"), as
       ``kdray build --layout/--leaves/--quality``.

@@ -16,8 +16,9 @@ pub struct BuildParams {
     /// A node with at most this many primitives becomes a leaf.
     pub max_prims: usize,
     /// Depth limit; `None` is `8 + 1.3·log2(N)` rounded (pbrt-v3), where a node holding more than
-    /// [`BuildParams::deep_leaf_prims`] primitives may still split for [`DEEP_LEVELS`] more levels. Both are
-    /// capped by the core's stack. An explicit limit is a hard one.
+    /// [`BuildParams::deep_leaf_prims`] primitives may still split for
+    /// [`BuildParams::deep_levels`] more levels. Both are capped by the core's stack. An explicit
+    /// limit is a hard one.
     pub max_depth: Option<u32>,
     /// Build subtrees on the rayon pool (with the `cli` feature; one thread without it).
     pub parallel: bool,
@@ -25,9 +26,13 @@ pub struct BuildParams {
     /// (`kdray::flat::Leaves::Groups`), which the SAH then prices in groups.
     pub group: usize,
     /// Past the automatic depth limit, a node holding more than this many primitives may still
-    /// split, for up to [`DEEP_LEVELS`] more levels ([`DEEP_LEAF_PRIMS`], or
-    /// [`GROUPED_DEEP_LEAF_PRIMS`] for grouped leaves).
+    /// split, for up to [`BuildParams::deep_levels`] more levels ([`DEEP_LEAF_PRIMS`],
+    /// [`GROUPED_DEEP_LEAF_PRIMS`] for grouped leaves, [`FAST_DEEP_LEAF_PRIMS`] at `fast`).
     pub deep_leaf_prims: usize,
+    /// How many levels past the automatic depth limit the nodes of
+    /// [`BuildParams::deep_leaf_prims`] may go ([`DEEP_LEVELS`]; at `fast`, [`FAST_DEEP_LEVELS`]:
+    /// down to the core's stack).
+    pub deep_levels: u32,
     /// Which builder makes the tree ([`Quality`]); the SAH and the rules above are the same.
     pub quality: Quality,
     /// The `fast` builder's settings (unused by `high`).
@@ -48,14 +53,16 @@ pub enum Quality {
     High,
     /// Binned planes on all but the smallest nodes, the exact sweep on those ([`fast`]);
     /// straddlers split by the plane alone by default ([`fast::FastParams::clip_min`]); at most
-    /// [`FAST_REFERENCE_BUDGET`] references a triangle along a path, no levels past the depth
-    /// limit ([`BuildParams::with_quality`]).
+    /// [`FAST_REFERENCE_BUDGET`] references a triangle along a path, and past the depth limit
+    /// only nodes of more than [`FAST_DEEP_LEAF_PRIMS`] primitives split
+    /// ([`BuildParams::with_quality`]).
     #[cfg_attr(
         feature = "cli",
         value(
             help = "Binned planes on all but the smallest nodes, the exact sweep on those; \
                       straddlers split by the plane alone; at most 2 references a triangle \
-                      along a path, no levels past the depth limit: for building at run time"
+                      along a path, past the depth limit only nodes of more than 32 triangles \
+                      split: for building at run time"
         )
     )]
     Fast,
@@ -85,6 +92,7 @@ impl Default for BuildParams {
             parallel: true,
             group: 1,
             deep_leaf_prims: DEEP_LEAF_PRIMS,
+            deep_levels: DEEP_LEVELS,
             quality: Quality::default(),
             fast: fast::FastParams::default(),
             reference_budget: super::REFERENCE_BUDGET,
@@ -94,16 +102,18 @@ impl Default for BuildParams {
 
 impl BuildParams {
     /// These parameters built at `quality`. [`Quality::Fast`] also bounds the references a
-    /// path may make ([`FAST_REFERENCE_BUDGET`]) and drops the levels past the depth limit
-    /// ([`BuildParams::deep_leaf_prims`] unbounded): a tree for a user who builds at run time
-    /// (docs/BUILD.md, "The first answer").
+    /// path may make ([`FAST_REFERENCE_BUDGET`]) and lets only nodes of more than
+    /// [`FAST_DEEP_LEAF_PRIMS`] primitives split past the depth limit, down to the core's stack
+    /// ([`FAST_DEEP_LEVELS`]): a tree for a user who builds at run time (docs/BUILD.md, "The
+    /// first answer").
     pub fn with_quality(self, quality: Quality) -> Self {
         match quality {
             Quality::High => Self { quality, ..self },
             Quality::Fast => Self {
                 quality,
                 reference_budget: FAST_REFERENCE_BUDGET,
-                deep_leaf_prims: usize::MAX,
+                deep_leaf_prims: FAST_DEEP_LEAF_PRIMS,
+                deep_levels: FAST_DEEP_LEVELS,
                 ..self
             },
         }
@@ -125,7 +135,7 @@ impl BuildParams {
 
 /// [`Quality::Fast`]'s [`BuildParams::reference_budget`]: a node whose triangles were
 /// duplicated more than twice over along its path is a leaf. With the levels past the depth limit
-/// dropped, it made the dragon-2 decimation's build 2.8× fewer instructions than the budget of
+/// dropped (before [`FAST_DEEP_LEAF_PRIMS`]), it made the dragon-2 decimation's build 2.8× fewer instructions than the budget of
 /// 32 with every level (6.9 K against 19.4 K a triangle) for a random ray 2.2× as costly
 /// (1,935 instructions against 898), and 66 bytes a triangle with index lists against 272 with
 /// groups (docs/BUILD.md, "The first answer").
@@ -150,7 +160,10 @@ impl BuildParams {
             Some(d) => (d.min(cap), d.min(cap)),
             None => {
                 let auto = (8.0 + 1.3 * (n.max(1) as f64).log2()).round() as u32;
-                (auto.min(cap), (auto + DEEP_LEVELS).min(cap))
+                (
+                    auto.min(cap),
+                    auto.saturating_add(self.deep_levels).min(cap),
+                )
             }
         }
     }
@@ -173,6 +186,20 @@ impl BuildParams {
 pub const DEEP_LEAF_PRIMS: usize = 8;
 /// See [`DEEP_LEAF_PRIMS`].
 pub const DEEP_LEVELS: u32 = 6;
+
+/// [`Quality::Fast`]'s [`BuildParams::deep_leaf_prims`]: past the automatic depth limit, a node
+/// of more than 32 primitives may still split, down to the core's stack ([`FAST_DEEP_LEVELS`]).
+/// Each cut-off of empty space takes a level, so a scene of separate objects (100 meshes in a
+/// box: the automatic limit, 31 levels, reached with leaves of up to 898 triangles) or a
+/// finely cut mesh ran out of levels before its leaves were small: on the 100 meshes, random
+/// rays 1,858 → 837 instructions for 55 % more build; on the dragon 1,397 → 1,297 (−7 %),
+/// diffuse −11 %, for 2.9 % more build and 67 → 68 bytes a triangle. 16 cut the dragon's rays
+/// 5 % more for 10 % more build; 64 left the dragon as it was and the 100 meshes' random rays
+/// at 979 (docs/BUILD.md, "`fast` past the depth limit").
+pub const FAST_DEEP_LEAF_PRIMS: usize = 32;
+/// See [`FAST_DEEP_LEAF_PRIMS`]: every level the core's stack allows
+/// ([`kdray_core::format::MAX_DEPTH`]).
+pub const FAST_DEEP_LEVELS: u32 = kdray_core::format::MAX_DEPTH as u32;
 
 #[cfg(test)]
 mod tests {

@@ -38,8 +38,8 @@ export function loadOptions(options) {
  * 'nodes'; `leaves` 'list' (default: index lists, whose triangles the walk gathers four at a
  * time into a SIMD test) or 'groups' (the triangles copied into groups of four: faster single
  * rays, two to four times the memory); `quality` 'fast' (default: binned planes, at most two
- * references a triangle along a path, no levels past the depth limit: the build for a first
- * answer) or 'high' (the exact sweep at every node, every level: a slower build of a tree that
+ * references a triangle along a path, past the depth limit only nodes of more than 32
+ * triangles split: the build for a first answer) or 'high' (the exact sweep at every node, every level: a slower build of a tree that
  * traces faster, for many millions of rays). Anything else throws.
  */
 export function buildFlags(options) {

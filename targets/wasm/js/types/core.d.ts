@@ -22,8 +22,8 @@ export interface SceneOptions {
   leaves?: 'groups' | 'list';
   /**
    * The builder: 'fast' (the default) picks planes from bins on all but the smallest nodes and
-   * lets a triangle be referenced at most twice over along a path, with no levels past the
-   * depth limit, as `kdray build --quality fast` does: the build for a first answer; 'high'
+   * lets a triangle be referenced at most twice over along a path, past the depth limit only
+   * nodes of more than 32 triangles splitting, as `kdray build --quality fast` does: the build for a first answer; 'high'
    * sweeps every candidate plane exactly at every node, every level (`--quality high`): a build
    * several times slower of a tree that traces faster, for many millions of rays. Both make
    * valid trees of the same format (Scene.build only: a loaded .kdt keeps its own).
