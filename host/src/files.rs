@@ -286,17 +286,20 @@ pub fn write_atomic_with(
 mod tests {
     use super::*;
 
-    fn dir(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("kdray-files-{}-{name}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d
+    /// A scratch folder for test `name`, removed with its files when the test ends.
+    fn dir(name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new()
+            .prefix(&format!("kdray-files-{name}-"))
+            .tempdir()
+            .unwrap()
     }
 
     #[test]
     fn outputs_are_checked_before_work() {
-        let d = dir("out");
+        let tmp = dir("out");
+        let d = tmp.path();
         assert!(check_output(&d.join("x.kdt")).is_ok());
-        let err = check_output(&d).unwrap_err().to_string();
+        let err = check_output(d).unwrap_err().to_string();
         assert!(err.contains("is a directory"), "{err}");
         let err = check_output(&d.join("missing/x.png"))
             .unwrap_err()
@@ -309,7 +312,8 @@ mod tests {
 
     #[test]
     fn atomic_write_leaves_nothing_on_failure() {
-        let d = dir("atomic");
+        let tmp = dir("atomic");
+        let d = tmp.path();
         let out = d.join("a.bin");
         write_atomic(&out, b"hello").unwrap();
         assert_eq!(std::fs::read(&out).unwrap(), b"hello");
@@ -320,7 +324,7 @@ mod tests {
             b"hello",
             "old file kept whole"
         );
-        let names: Vec<_> = std::fs::read_dir(&d)
+        let names: Vec<_> = std::fs::read_dir(d)
             .unwrap()
             .map(|e| e.unwrap().file_name())
             .collect();
@@ -329,8 +333,9 @@ mod tests {
 
     #[test]
     fn non_regular_inputs_are_refused() {
-        let d = dir("regular");
-        let err = read(&d).unwrap_err().to_string();
+        let tmp = dir("regular");
+        let d = tmp.path();
+        let err = read(d).unwrap_err().to_string();
         assert!(err.contains("directory"), "{err}");
         let err = read(Path::new("/dev/null")).unwrap_err().to_string();
         assert!(

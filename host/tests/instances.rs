@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{dir, kdray, s};
+use common::{Scratch, dir, kdray, s};
 use glam::Vec3;
 use kdray::build::{BuildParams, build};
 use kdray::instances::top_level;
@@ -72,14 +72,14 @@ fn merged_text() -> String {
     t + REST
 }
 
-/// Writes the mesh and both scenes into a fresh folder: (instanced, merged).
-fn scenes(name: &str) -> (PathBuf, PathBuf) {
+/// Writes the mesh and both scenes into a fresh folder: (the folder, instanced, merged).
+fn scenes(name: &str) -> (Scratch, PathBuf, PathBuf) {
     let d = dir(name);
     std::fs::write(d.join("oct.obj"), OCTAHEDRON).unwrap();
     let (a, b) = (d.join("instanced.toml"), d.join("merged.toml"));
     std::fs::write(&a, instanced_text()).unwrap();
     std::fs::write(&b, merged_text()).unwrap();
-    (a, b)
+    (d, a, b)
 }
 
 /// A tree's words for `g`.
@@ -113,7 +113,7 @@ fn rays() -> Vec<Ray> {
 
 #[test]
 fn instances_trace_as_the_same_meshes_placed_by_translations() {
-    let (a, b) = scenes("trace-equal");
+    let (_folder, a, b) = scenes("trace-equal");
     let (a, b) = (
         kdray::scene::load_scene(&a).unwrap(),
         kdray::scene::load_scene(&b).unwrap(),
@@ -178,7 +178,7 @@ fn instances_trace_as_the_same_meshes_placed_by_translations() {
 /// closely but not bit for bit.
 #[test]
 fn instances_render_as_the_same_meshes_placed_by_translations() {
-    let (a, b) = scenes("render-equal");
+    let (_folder, a, b) = scenes("render-equal");
     let (a, b) = (
         kdray::scene::load_scene(&a).unwrap(),
         kdray::scene::load_scene(&b).unwrap(),
@@ -314,8 +314,7 @@ fn each_copy_has_its_mesh_entrys_material() {
 /// mesh and the copy's id in the `--instances` file, which `kdray hits --instances` prints.
 #[test]
 fn trace_writes_the_instance_of_each_hit() {
-    let (a, b) = scenes("cli-trace");
-    let d = a.parent().unwrap().to_path_buf();
+    let (d, a, b) = scenes("cli-trace");
     let rays_path = d.join("rays.bin");
     std::fs::write(&rays_path, kdray::rays::encode_rays(&rays())).unwrap();
     let run = |scene: &Path, out: &str, ids: Option<&str>| {
