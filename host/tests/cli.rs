@@ -577,3 +577,42 @@ fn build_writes_a_render_description_for_scene_files_only() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--description"));
 }
+
+/// `kdray build --quality fast --leaves list` builds the tree the npm and Python packages build
+/// by default (`fast`, the SAH priced in groups of four whatever the leaves, index lists, wide
+/// nodes): the same words but for the header's build time and checksum.
+#[test]
+fn build_fast_with_lists_is_the_packages_default_tree() {
+    use kdray::build::{BuildParams, Quality, build};
+    use kdray::flat::{Layout, Leaves, read_kdt, serialize_as};
+    use kdray_core::format::{header, seal};
+    let d = dir("packages-tree");
+    let mesh = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/bunny.ply.gz");
+    let kdt = d.join("fast.kdt");
+    let out = kdray(&[
+        "build",
+        s(&mesh),
+        "-o",
+        s(&kdt),
+        "--quality",
+        "fast",
+        "--leaves",
+        "list",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let geom = kdray::load::load_mesh(&mesh).unwrap();
+    let params = BuildParams::grouped().with_quality(Quality::Fast);
+    let tree = build(&geom, &params, None).unwrap();
+    let mut packages = serialize_as(&tree, &geom, 0.0, Layout::Wide, Leaves::List).unwrap();
+    let mut cli = read_kdt(&kdt).unwrap();
+    for words in [&mut packages, &mut cli] {
+        words[header::BUILD_MS] = 0;
+        seal(words);
+    }
+    assert_eq!(cli.len(), packages.len());
+    assert!(cli == packages, "the CLI's fast tree is not the packages'");
+}

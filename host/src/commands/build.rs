@@ -14,8 +14,9 @@ use std::time::Instant;
 /// Builder settings shared by `build` and `trace`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct BuildArgs {
-    /// SAH cost of one primitive test (of one group of four with `--leaves groups`), relative to
-    /// one traversal step (finite, > 0) [default: 80, or 3 with `--leaves groups`].
+    /// SAH cost of one primitive test (of one group of four with `--leaves groups` or `--quality
+    /// fast`), relative to one traversal step (finite, > 0) [default: 80, or 3 with `--leaves
+    /// groups` or `--quality fast`].
     #[arg(long, value_parser = parse_cost)]
     pub isect_cost: Option<f64>,
     /// SAH cost of one traversal step (finite, > 0).
@@ -76,9 +77,16 @@ impl BuildArgs {
         self.leaves.unwrap_or_else(|| flat::Leaves::for_host(geom))
     }
 
-    /// The builder's settings for a tree stored with `leaves`.
+    /// The builder's settings for a tree stored with `leaves`: the SAH priced in groups of four
+    /// with `--leaves groups`, and at `--quality fast` whatever the leaves (the single-ray walks
+    /// test a listed leaf's triangles four at a time too), so that `--quality fast --leaves
+    /// list` builds the npm and Python packages' default tree; else pbrt-v3's per-triangle
+    /// costs.
     pub fn params(&self, leaves: flat::Leaves) -> BuildParams {
-        let base = leaves.build_params();
+        let base = match self.quality {
+            Quality::Fast => BuildParams::grouped(),
+            Quality::High => leaves.build_params(),
+        };
         BuildParams {
             traversal_cost: self.trav_cost,
             intersect_cost: self.isect_cost.unwrap_or(base.intersect_cost),
