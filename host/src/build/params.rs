@@ -135,10 +135,10 @@ impl BuildParams {
 
 /// [`Quality::Fast`]'s [`BuildParams::reference_budget`]: a node whose triangles were
 /// duplicated more than twice over along its path is a leaf. With the levels past the depth limit
-/// dropped (before [`FAST_DEEP_LEAF_PRIMS`]), it made the dragon-2 decimation's build 2.8× fewer instructions than the budget of
-/// 32 with every level (6.9 K against 19.4 K a triangle) for a random ray 2.2× as costly
-/// (1,935 instructions against 898), and 66 bytes a triangle with index lists against 272 with
-/// groups (docs/BUILD.md, "The first answer").
+/// dropped (before [`FAST_DEEP_LEAF_PRIMS`]), it made the dragon-2 decimation's build 2.8× fewer
+/// instructions than the budget of 32 with every level (6.9 K against 19.4 K a triangle) for a
+/// random ray 2.2× as costly (1,935 instructions against 898), and 66 bytes a triangle with index
+/// lists against 272 with groups (docs/BUILD.md, "The first answer").
 pub const FAST_REFERENCE_BUDGET: f64 = 2.0;
 
 /// [`BuildParams::grouped`]'s intersection cost.
