@@ -49,18 +49,28 @@ fn past_the_automatic_limit_only_crowded_nodes_split() {
     let (soft, hard) = params.depth_limits(geom.triangles.len());
     assert_eq!(hard, soft + DEEP_LEVELS);
     let tree = build(&geom, &params, None).unwrap();
+    // The poles make the rule matter: some nodes do split past the automatic limit.
+    past_the_limit_only_crowded_nodes_split(&tree.root, (soft, hard), DEEP_LEAF_PRIMS);
+}
+
+/// Asserts the depth rule on a built tree: no deeper than `hard`, every interior node at or past
+/// `soft` holding more than `deep_leaf_prims` primitives, and at least one such node.
+fn past_the_limit_only_crowded_nodes_split(
+    root: &BuildNode,
+    (soft, hard): (u32, u32),
+    deep_leaf_prims: usize,
+) {
     let mut deep_interiors = 0;
-    let (depth, _) = walk(&tree.root, 0, &mut |d, prims| {
+    let (depth, _) = walk(root, 0, &mut |d, prims| {
         if d >= soft {
             deep_interiors += 1;
             assert!(
-                prims > DEEP_LEAF_PRIMS,
+                prims > deep_leaf_prims,
                 "an interior node at depth {d} (limit {soft}) holds only {prims} primitives"
             );
         }
     });
     assert!(depth <= hard, "depth {depth} past the hard limit {hard}");
-    // The poles make the rule matter: some nodes do split past the automatic limit.
     assert!(deep_interiors > 0, "no node split past depth {soft}");
 }
 
@@ -181,18 +191,7 @@ fn fast_trees_of_scattered_objects_split_crowded_nodes_past_the_automatic_limit(
     let (soft, hard) = params.depth_limits(geom.triangles.len());
     assert_eq!(hard, kdray_core::format::MAX_DEPTH as u32);
     let tree = build(&geom, &params, None).unwrap();
-    let mut deep_interiors = 0;
-    let (depth, _) = walk(&tree.root, 0, &mut |d, prims| {
-        if d >= soft {
-            deep_interiors += 1;
-            assert!(
-                prims > FAST_DEEP_LEAF_PRIMS,
-                "an interior node at depth {d} (limit {soft}) holds only {prims} triangles"
-            );
-        }
-    });
-    assert!(depth <= hard, "depth {depth} past the stack's {hard}");
     let largest = largest_leaf(&tree.root);
     assert!(largest <= 64, "a leaf of {largest} triangles");
-    assert!(deep_interiors > 0, "no node split past depth {soft}");
+    past_the_limit_only_crowded_nodes_split(&tree.root, (soft, hard), FAST_DEEP_LEAF_PRIMS);
 }
