@@ -5,8 +5,8 @@ question, all on one thread (`threads=1`, Open3D's `nthreads=1`):
 - `kdray.Instances(meshes)`: each mesh its own tree, placed by the identity under a top level
   (the two-level walk, `geometry_id` from the instance hit);
 - `kdray.Instances(meshes, merge=True)`: one tree over every mesh's triangles, built on the
-  first query, and its map from triangle to mesh (`np.searchsorted` over the meshes' first
-  triangles, timed with the rays).
+  first query, and its map from triangle to mesh (a search over the meshes' first triangles,
+  timed with the rays).
 
     python bench/instances_open3d.py --rounds 5
     python bench/instances_open3d.py --mesh data/bunny.tri --count 100

@@ -247,10 +247,9 @@ class Instances:
     def _ids(merged: Any, prim: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """A merged tree's triangles as ``(geometry_id, prim, instance_id)``."""
         _, first, ids = merged
-        hit = prim >= 0
-        k = np.clip(np.searchsorted(first, prim, side="right") - 1, 0, len(ids) - 1)
-        return (np.where(hit, ids[k], -1), np.where(hit, prim - first[k], -1),
-                np.where(hit, 0, -1))
+        flat = prim.reshape(-1)  # a fresh array's view: rewritten in place to the meshes' ids
+        g, i = _kdray.merged_ids(flat, first, ids)
+        return g.reshape(prim.shape), prim, i.reshape(prim.shape)
 
     def _geometry(self, geometry_id: Any) -> int:
         try:

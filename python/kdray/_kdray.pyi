@@ -86,3 +86,7 @@ def merge(
     trees: List[Tree], layout: Literal["wide", "nodes"], leaves: Literal["groups", "list"],
     quality: Literal["fast", "high"], threads: Optional[int],
 ) -> Tree: ...
+# A merged tree's triangles (rewritten in place) as (mesh's triangle, geometry ids, instance ids).
+def merged_ids(
+    prim: npt.NDArray[np.int64], first: npt.NDArray[np.int64], ids: npt.NDArray[np.int64]
+) -> Tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...

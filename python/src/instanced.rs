@@ -522,38 +522,3 @@ pub(crate) fn check_rays(py: Python<'_>, rays: RayArgs<'_>) -> PyResult<()> {
     let batch = rays.batch()?;
     py.detach(|| batch.check_values()).map_err(value_error)
 }
-
-/// One tree over the triangles of `trees`, in order (each tree's in its input order, as stored:
-/// the same f32 vertices), built with `layout`, `leaves`, `quality`: `kdray.Instances(...,
-/// merge=True)` where every mesh is placed once by the identity, whose answers are then those
-/// of the two-level walk, bit for bit, from one walk instead of one per mesh.
-#[pyfunction]
-#[pyo3(signature = (trees, layout, leaves, quality, threads))]
-pub(crate) fn merge(
-    py: Python<'_>,
-    trees: Vec<Py<Tree>>,
-    layout: &str,
-    leaves: &str,
-    quality: &str,
-    threads: Option<usize>,
-) -> PyResult<Tree> {
-    let options = crate::options(layout, leaves, quality, threads)?;
-    let scenes: Vec<&Scene> = trees.iter().map(|t| t.get().owned.scene()).collect();
-    let owned = py.detach(|| {
-        crate::pool::on_pool(threads, || -> Result<crate::owned::Owned, Stop> {
-            let total: usize = scenes.iter().map(|s| s.tri_count() as usize).sum();
-            crate::owned::probe_build(total)?;
-            let mut tris = Vec::new();
-            stop::reserve(&mut tris, total, "the merged triangles")?;
-            for s in &scenes {
-                let from = tris.len();
-                tris.resize(from + s.tri_count() as usize, [glam::Vec3::ZERO; 3]);
-                for i in 0..s.tri_count() {
-                    tris[from + s.input_id(i) as usize] = s.vertices(i);
-                }
-            }
-            Ok(crate::owned::build(tris, options)?)
-        })?
-    })?;
-    Ok(Tree { owned })
-}

@@ -17,6 +17,7 @@ mod closest;
 mod crossings;
 mod instanced;
 mod mapped;
+mod merged;
 mod mesh;
 mod owned;
 mod pickle;
@@ -452,7 +453,8 @@ fn _kdray(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Tree>()?;
     m.add_class::<instanced::Top>()?;
     m.add_function(wrap_pyfunction!(instanced::check_rays, m)?)?;
-    m.add_function(wrap_pyfunction!(instanced::merge, m)?)?;
+    m.add_function(wrap_pyfunction!(merged::merge, m)?)?;
+    m.add_function(wrap_pyfunction!(merged::merged_ids, m)?)?;
     m.add_function(wrap_pyfunction!(pickle::words, m)?)?;
     m.add_function(wrap_pyfunction!(mapped::map_kdt, m)?)?;
     m.add("CONTAINS_DIRECTION", crossings::CONTAINS_DIRECTION)?;

@@ -237,6 +237,9 @@ def test_merge_answers_as_the_two_level_walk_bit_for_bit(rng, watertight):
         b = merged.intersect(origins, directions, points=True, normals=True)
         for x, y in zip(a[:6], b[:6]):
             assert np.array_equal(x, y)
+        grid = merged.intersect(origins.reshape(100, -1, 3), directions.reshape(100, -1, 3))
+        for x, y in zip(grid[:6], b[:6]):
+            assert x.shape == (100, 200) and np.array_equal(x.ravel(), y)
         np.testing.assert_allclose(a.points, b.points, rtol=1e-6, atol=1e-6)
         np.testing.assert_allclose(a.normals, b.normals, atol=1e-6)
         assert np.array_equal(walk.occluded(origins, directions),
@@ -258,3 +261,17 @@ def test_merge_answers_as_the_two_level_walk_bit_for_bit(rng, watertight):
         scene.add_mesh(small)
     assert merged.info["merged"] and merged.geometry_ids == [0, 1, 3]
     agree()
+
+
+def test_merged_ids_refuse_ranges_that_do_not_ascend_from_zero():
+    """The merged answers' naming refuses mesh ranges it cannot search, and names a triangle
+    by its mesh and its index there."""
+    ids = np.array([7, 9], dtype=np.int64)
+    for first in ([1, 2, 3], [0, 3, 2], [0, 3]):
+        with pytest.raises(ValueError, match="ascend from 0"):
+            kdray._kdray.merged_ids(np.zeros(2, dtype=np.int64),
+                                    np.array(first, dtype=np.int64), ids)
+    prim = np.array([-1, 0, 2, 3, 4], dtype=np.int64)
+    g, i = kdray._kdray.merged_ids(prim, np.array([0, 3, 5], dtype=np.int64), ids)
+    assert prim.tolist() == [-1, 0, 2, 0, 1]
+    assert g.tolist() == [-1, 7, 7, 9, 9] and i.tolist() == [-1, 0, 0, 0, 0]
