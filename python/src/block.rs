@@ -1,4 +1,5 @@
-//! The memory of `Tree.intersect`'s answers: one block per call for all of its arrays, recycled.
+//! The memory of `Tree.intersect`'s and `Top.intersect`'s answers: one block per call for all of
+//! its arrays, recycled.
 //!
 //! Why: a million rays' answers are 20 MB of new arrays a call. Fresh from the allocator they are
 //! fresh pages, which the kernel zeroes on first touch: on this VM that cost 2–8 ms a call (varying
@@ -46,15 +47,15 @@ impl Drop for Block {
 
 /// Where each array lies in a block: byte offsets, each on a cache line.
 #[derive(Clone, Copy, Debug)]
-pub struct Layout {
-    offsets: [usize; 6],
+pub struct Layout<const N: usize> {
+    offsets: [usize; N],
     bytes: usize,
 }
 
-impl Layout {
-    /// Arrays of `sizes[k]` elements of `widths[k]` bytes, one after another.
-    pub fn new(sizes: [(usize, usize); 6]) -> Self {
-        let mut offsets = [0; 6];
+impl<const N: usize> Layout<N> {
+    /// Arrays of `sizes[k].0` elements of `sizes[k].1` bytes, one after another.
+    pub fn new(sizes: [(usize, usize); N]) -> Self {
+        let mut offsets = [0; N];
         let mut at = 0;
         for (o, (n, width)) in offsets.iter_mut().zip(sizes) {
             *o = at;
@@ -70,7 +71,7 @@ impl Block {
     ///
     /// # Errors
     /// A new block's memory cannot be allocated ([`Stop::Memory`]).
-    pub fn new(layout: Layout) -> Result<Self, Stop> {
+    pub fn new<const N: usize>(layout: Layout<N>) -> Result<Self, Stop> {
         // One word more than needed, so that the arrays can start on a cache line whatever the
         // allocation's alignment (`malloc`: 16 bytes).
         let need = layout.bytes.div_ceil(8) + 8;
@@ -103,7 +104,7 @@ impl Block {
     }
 
     /// The block's arrays as bytes to write, in `layout`'s order.
-    pub fn split(&mut self, layout: Layout) -> [&mut [MaybeUninit<u8>]; 6] {
+    pub fn split<const N: usize>(&mut self, layout: Layout<N>) -> [&mut [MaybeUninit<u8>]; N] {
         let start = self.start();
         let len = 8 * self.words.len();
         // SAFETY: the words' bytes, as bytes (any bits are a valid `MaybeUninit<u8>`).
@@ -126,9 +127,9 @@ impl Block {
     /// # Safety
     /// `layout` is the block's, array `k` holds `len` elements of `T` (as the layout was made),
     /// and every one of them has been written.
-    pub unsafe fn array<'py, T: Element>(
+    pub unsafe fn array<'py, T: Element, const N: usize>(
         block: &Bound<'py, Block>,
-        layout: Layout,
+        layout: Layout<N>,
         k: usize,
         len: usize,
     ) -> Bound<'py, PyArray1<T>> {

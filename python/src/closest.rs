@@ -81,7 +81,11 @@ thread_local! {
 }
 
 /// `len` pieces of `v`'s chunks of `c` (`None` each when `v` is).
-fn chunks_or_none<T>(v: Option<&mut [T]>, c: usize, len: usize) -> Vec<Option<&mut [T]>> {
+pub(crate) fn chunks_or_none<T>(
+    v: Option<&mut [T]>,
+    c: usize,
+    len: usize,
+) -> Vec<Option<&mut [T]>> {
     match v {
         Some(v) => v.chunks_mut(c).map(Some).collect(),
         None => (0..len).map(|_| None).collect(),

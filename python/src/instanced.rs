@@ -15,6 +15,8 @@
 //! without the GIL, Ctrl-C checked between pieces (`run`).
 
 use crate::Tree;
+use crate::block;
+use crate::closest::chunks_or_none;
 use crate::rays::{Batch, CHUNK, for_chunks};
 use crate::run::{self, Cancel, cancelled};
 use crate::stop::{self, Stop};
@@ -26,7 +28,10 @@ use kdray_core::traverse::Mode;
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use rayon::prelude::*;
 use self_cell::self_cell;
+use std::mem::MaybeUninit;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// What a top level holds: its words, the bottom scenes it indexes and the trees that own
 /// their words.
@@ -134,27 +139,45 @@ pub struct Top {
 /// placements, so a whole piece (up to `rays::MAX_PIECE` rays) could outlast Ctrl-C by seconds.
 const CANCEL_EVERY: usize = 1024;
 
-/// One ray's answer, written by the pool and spread into arrays after.
-#[derive(Clone, Copy)]
-struct Answer {
-    t: f32,
-    prim: i64,
-    u: f32,
-    v: f32,
-    user: u32,
-    point: [f32; 3],
-    normal: [f32; 3],
+/// One piece of a batch's answers, rays `start..start + t.len()`, written in place (the arrays
+/// of `Tree.intersect`'s, and the hit's geometry and instance ids; `closest::Answers`).
+struct Piece<'a> {
+    start: usize,
+    t: &'a mut [MaybeUninit<f32>],
+    prim: &'a mut [MaybeUninit<i64>],
+    u: &'a mut [MaybeUninit<f32>],
+    v: &'a mut [MaybeUninit<f32>],
+    geometry: &'a mut [MaybeUninit<i64>],
+    instance: &'a mut [MaybeUninit<i64>],
+    points: Option<&'a mut [MaybeUninit<f32>]>,
+    normals: Option<&'a mut [MaybeUninit<f32>]>,
 }
 
-const MISS: Answer = Answer {
-    t: f32::INFINITY,
-    prim: -1,
-    u: 0.0,
-    v: 0.0,
-    user: u32::MAX,
-    point: [f32::NAN; 3],
-    normal: [f32::NAN; 3],
-};
+impl Piece<'_> {
+    /// Writes the answer of the piece's ray `j`: `t` in the batch's units, the triangle in its
+    /// mesh's input order, the barycentrics `uv`, the hit's `[geometry, instance]` ids.
+    #[inline]
+    fn write(&mut self, j: usize, t: f32, prim: i64, [u, v]: [f32; 2], [g, i]: [i64; 2]) {
+        self.t[j].write(t);
+        self.prim[j].write(prim);
+        self.u[j].write(u);
+        self.v[j].write(v);
+        self.geometry[j].write(g);
+        self.instance[j].write(i);
+    }
+
+    /// Writes ray `j`'s point and normal where asked for (NaN for a miss).
+    #[inline]
+    fn write_geometry(&mut self, j: usize, point: [f32; 3], normal: [f32; 3]) {
+        for (out, xyz) in [(&mut self.points, point), (&mut self.normals, normal)] {
+            if let Some(out) = out.as_deref_mut() {
+                for (o, x) in out[3 * j..3 * j + 3].iter_mut().zip(xyz) {
+                    o.write(x);
+                }
+            }
+        }
+    }
+}
 
 /// The 3×4 row-major transform of row `i` of `transforms` (12 floats a row).
 fn affine(transforms: &[f32], i: usize) -> Affine {
@@ -201,62 +224,116 @@ impl Top {
         }
     }
 
-    /// The closest hit of every ray of `batch`, on the current pool; `None` at a ray that
-    /// `check_values` refuses.
-    fn trace(
-        &self,
-        batch: &Batch,
-        mode: Mode,
-        geometry: bool,
-        cancel: &Cancel,
-    ) -> Result<Option<Vec<Answer>>, Stop> {
-        let mut out = stop::filled(batch.n, MISS, "intersect's answers")?;
+    /// Writes the closest hit of every ray of `batch` into `out`, on the current pool; false
+    /// (`out` partly written) at a ray that `check_values` refuses. Stops early, `out` partly
+    /// written, once `cancel` is set.
+    fn trace(&self, batch: &Batch, mode: Mode, out: Answers, cancel: &Cancel) -> bool {
         let c = batch.pieces();
+        let count = batch.n.div_ceil(c);
+        let pieces: Vec<Piece> = out
+            .t
+            .chunks_mut(c)
+            .zip(out.prim.chunks_mut(c))
+            .zip(out.u.chunks_mut(c))
+            .zip(out.v.chunks_mut(c))
+            .zip(out.geometry.chunks_mut(c))
+            .zip(out.instance.chunks_mut(c))
+            .zip(chunks_or_none(out.points, 3 * c, count))
+            .zip(chunks_or_none(out.normals, 3 * c, count))
+            .enumerate()
+            .map(
+                |(k, (((((((t, prim), u), v), geometry), instance), points), normals))| Piece {
+                    start: k * c,
+                    t,
+                    prim,
+                    u,
+                    v,
+                    geometry,
+                    instance,
+                    points,
+                    normals,
+                },
+            )
+            .collect();
+        let bad = AtomicBool::new(false);
+        let work = |p: Piece| {
+            if !bad.load(Ordering::Relaxed)
+                && !cancelled(cancel)
+                && !self.trace_piece(batch, mode, p, cancel)
+            {
+                bad.store(true, Ordering::Relaxed);
+            }
+        };
+        if pieces.len() == 1 {
+            // On the calling thread for a batch of at most `CHUNK` rays: nothing may ask rayon
+            // there (`Batch::pieces`).
+            pieces.into_iter().for_each(work);
+        } else {
+            pieces.into_par_iter().for_each(work);
+        }
+        !bad.into_inner()
+    }
+
+    /// Traces piece `p` of `batch`; false at a ray that `check_values` refuses.
+    fn trace_piece(&self, batch: &Batch, mode: Mode, mut p: Piece, cancel: &Cancel) -> bool {
+        let (mut rays, mut lengths) = (Vec::new(), Vec::new());
+        if !batch.convert(p.start..p.start + p.t.len(), &mut rays, &mut lengths) {
+            return false;
+        }
         let walk = self.walk();
-        let bad = std::sync::atomic::AtomicBool::new(false);
-        for_chunks(&mut out, c, |k, out| {
-            if cancelled(cancel) || bad.load(std::sync::atomic::Ordering::Relaxed) {
-                return;
+        let geometry = p.points.is_some() || p.normals.is_some();
+        for (j, (ray, &len)) in rays.iter().zip(&lengths).enumerate() {
+            if j % CANCEL_EVERY == 0 && cancelled(cancel) {
+                return true;
             }
-            let (mut rays, mut lengths) = (Vec::new(), Vec::new());
-            let from = k * c;
-            if !batch.convert(from..from + out.len(), &mut rays, &mut lengths) {
-                bad.store(true, std::sync::atomic::Ordering::Relaxed);
-                return;
-            }
-            for (j, (a, (ray, len))) in out.iter_mut().zip(rays.iter().zip(&lengths)).enumerate() {
-                if j % CANCEL_EVERY == 0 && cancelled(cancel) {
-                    return;
+            let h = walk.intersect_in(mode, ray);
+            if !h.is_hit() {
+                p.write(j, f32::INFINITY, -1, [0.0; 2], [-1; 2]);
+                if geometry {
+                    p.write_geometry(j, [f32::NAN; 3], [f32::NAN; 3]);
                 }
-                let h = walk.intersect_in(mode, ray);
-                if h.is_hit() {
-                    *a = answer(walk, &h, *len);
-                    if geometry {
-                        a.point = batch.point(from + j, a.t);
-                        a.normal = walk.geometric_normal(&h, ray).normalize().to_array();
-                    }
-                }
+                continue;
             }
-        });
-        Ok((!bad.into_inner()).then_some(out))
+            let t = t_of(h.t, len);
+            let (g, i) = self.ids(h.user_id);
+            p.write(j, t, prim_of(walk, &h), [h.u, h.v], [g, i]);
+            if geometry {
+                let point = batch.point(p.start + j, t);
+                let normal = walk.geometric_normal(&h, ray).normalize().to_array();
+                p.write_geometry(j, point, normal);
+            }
+        }
+        true
     }
 }
 
-/// A hit's answer in the batch's units (`t` over the direction's length `len`).
+/// Where a batch's closest hits go: `Tree.intersect`'s arrays (`closest::Answers`) and the hits'
+/// geometry and instance ids (−1 for a miss), every element written unless the batch is refused.
+struct Answers<'a> {
+    t: &'a mut [MaybeUninit<f32>],
+    prim: &'a mut [MaybeUninit<i64>],
+    u: &'a mut [MaybeUninit<f32>],
+    v: &'a mut [MaybeUninit<f32>],
+    geometry: &'a mut [MaybeUninit<i64>],
+    instance: &'a mut [MaybeUninit<i64>],
+    points: Option<&'a mut [MaybeUninit<f32>]>,
+    normals: Option<&'a mut [MaybeUninit<f32>]>,
+}
+
+/// A hit's `t` in the batch's units (over the direction's length `len`).
 #[inline]
-fn answer(walk: &Walk, h: &InstanceHit, len: f64) -> Answer {
-    Answer {
-        t: if len == 1.0 {
-            h.t
-        } else {
-            (f64::from(h.t) / len) as f32
-        },
-        prim: i64::from(walk.bottom_of(h.instance).input_id(h.prim)),
-        u: h.u,
-        v: h.v,
-        user: h.user_id,
-        ..MISS
+fn t_of(t: f32, len: f64) -> f32 {
+    if len == 1.0 {
+        t
+    } else {
+        (f64::from(t) / len) as f32
     }
+}
+
+/// A hit's triangle in its mesh's input order.
+#[inline]
+fn prim_of(walk: &Walk, h: &InstanceHit) -> i64 {
+    i64::from(walk.bottom_of(h.instance).input_id(h.prim))
 }
 
 /// Runs `work` on this thread for a few rays, else on the pool of `threads` (as `traced` in
@@ -397,9 +474,8 @@ impl Top {
         if !h.is_hit() {
             return Ok((f32::INFINITY, -1, 0.0, 0.0, -1, -1));
         }
-        let a = answer(walk, &h, len);
-        let (g, i) = self.ids(a.user);
-        Ok((a.t, a.prim, a.u, a.v, g, i))
+        let (g, i) = self.ids(h.user_id);
+        Ok((t_of(h.t, len), prim_of(walk, &h), h.u, h.v, g, i))
     }
 
     /// Closest hits: `(t, prim, u, v, geometry, instance, points or None, normals or None)`.
@@ -424,62 +500,56 @@ impl Top {
         Option<Bound<'py, PyArray1<f32>>>,
     )> {
         let batch = rays.batch()?;
-        let geometry = points || normals;
-        let out = run_batch(py, batch.n, threads, |cancel| {
-            match self.trace(&batch, mode(watertight), geometry, cancel)? {
-                Some(out) => Ok(out),
-                None => Err(Stop::Value(match batch.check_values() {
+        // One recycled block for every array, written in place by the threads (as
+        // `Tree.intersect`'s: `block`).
+        let n = batch.n;
+        let extra = |on: bool| if on { 3 * n } else { 0 };
+        let layout = block::Layout::new([
+            (n, 4),
+            (n, 8),
+            (n, 4),
+            (n, 4),
+            (n, 8),
+            (n, 8),
+            (extra(points), 4),
+            (extra(normals), 4),
+        ]);
+        let mut memory = block::Block::new(layout)?;
+        let [t, prim, u, v, g, i, p, nrm] = memory.split(layout);
+        let out = Answers {
+            t: block::typed(t, n),
+            prim: block::typed(prim, n),
+            u: block::typed(u, n),
+            v: block::typed(v, n),
+            geometry: block::typed(g, n),
+            instance: block::typed(i, n),
+            points: points.then(|| block::typed(p, 3 * n)),
+            normals: normals.then(|| block::typed(nrm, 3 * n)),
+        };
+        run_batch(py, n, threads, |cancel| {
+            if self.trace(&batch, mode(watertight), out, cancel) {
+                Ok(())
+            } else {
+                Err(Stop::Value(match batch.check_values() {
                     Err(e) => e,
                     Ok(()) => "a ray could not be traced: please report this batch".to_string(),
-                })),
+                }))
             }
         })?;
-        // The arrays' memory reserved fallibly, as every batch's (a `MemoryError`, not an abort).
-        let n = out.len();
-        let what = "intersect's answers";
-        let (mut t, mut u, mut v) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut prim, mut g, mut i) = (Vec::new(), Vec::new(), Vec::new());
-        for a in [&mut t, &mut u, &mut v] {
-            stop::reserve(a, n, what)?;
+        let memory = Bound::new(py, memory)?;
+        // SAFETY: the layout is the block's, and `trace` wrote every element.
+        unsafe {
+            Ok((
+                block::Block::array(&memory, layout, 0, n),
+                block::Block::array(&memory, layout, 1, n),
+                block::Block::array(&memory, layout, 2, n),
+                block::Block::array(&memory, layout, 3, n),
+                block::Block::array(&memory, layout, 4, n),
+                block::Block::array(&memory, layout, 5, n),
+                points.then(|| block::Block::array(&memory, layout, 6, 3 * n)),
+                normals.then(|| block::Block::array(&memory, layout, 7, 3 * n)),
+            ))
         }
-        for a in [&mut prim, &mut g, &mut i] {
-            stop::reserve(a, n, what)?;
-        }
-        let extra = |on: bool| -> Result<Option<Vec<f32>>, Stop> {
-            if !on {
-                return Ok(None);
-            }
-            let mut x = Vec::new();
-            stop::reserve(&mut x, 3 * n, what)?;
-            Ok(Some(x))
-        };
-        let (mut p, mut nrm) = (extra(points)?, extra(normals)?);
-        for a in &out {
-            t.push(a.t);
-            prim.push(a.prim);
-            u.push(a.u);
-            v.push(a.v);
-            let (gi, ii) = self.ids(a.user);
-            g.push(gi);
-            i.push(ii);
-            if let Some(p) = p.as_mut() {
-                p.extend(a.point);
-            }
-            if let Some(nrm) = nrm.as_mut() {
-                nrm.extend(a.normal);
-            }
-        }
-        drop(out);
-        Ok((
-            PyArray1::from_vec(py, t),
-            PyArray1::from_vec(py, prim),
-            PyArray1::from_vec(py, u),
-            PyArray1::from_vec(py, v),
-            PyArray1::from_vec(py, g),
-            PyArray1::from_vec(py, i),
-            p.map(|p| PyArray1::from_vec(py, p)),
-            nrm.map(|n| PyArray1::from_vec(py, n)),
-        ))
     }
 
     /// Whether anything lies along each ray.
