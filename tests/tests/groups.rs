@@ -13,9 +13,9 @@ use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::format::{FormatError, contents, header, seal};
 use kdray_core::group::{self, GROUP_WORDS, PAD_ID, slot};
 use kdray_core::simd::group::{
-    Pair, closest_in_group, intersect_group, intersect_group_watertight,
+    GroupLanes, Pair, closest_in_group, intersect_group, intersect_group_watertight,
 };
-use kdray_core::simd::{HitPacket, RayPacket, f32x8};
+use kdray_core::simd::{HitPacket, Lanes, RayPacket, f32x8};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config, Packets};
 use kdray_core::watertight::{Shear, intersect_sheared};
@@ -326,26 +326,56 @@ fn a_group_holds_its_lanes_as_the_triangles_section_does() {
     assert_eq!(group::groups_for(5), 2);
 }
 
-/// A listed leaf's triangles are tested four at a time in a group gathered from the triangles
-/// section (`Scene::gather_group`): it must be the group `pack` makes of the same lanes, padding
-/// included, for one to four ids.
+/// A listed leaf's triangles are tested in lanes gathered from the triangles section
+/// (`Scene::gather4`, `Scene::gather8`): they must be the lanes of the group `pack` makes of the
+/// same triangles (four or fewer), or of the pair of groups (five to eight), padding included,
+/// bit for bit: every vertex, threshold, id and lane's vertices.
 #[test]
-fn a_gathered_group_is_the_packed_group_of_its_triangles() {
+fn gathered_lanes_are_the_packed_groups_of_their_triangles() {
     let geom = scattered_triangles(40);
     let [list, _] = both_leaves(&geom, 80.0, 1, Layout::Nodes);
     let scene = Scene::from_words(&list).unwrap();
-    let all: Vec<u32> = (0..scene.tri_count()).collect();
-    for ids in all
-        .chunks(3)
-        .chain(all.chunks(4))
-        .chain(all.chunks(1))
-        .chain(all.chunks(2))
-    {
+    let all: Vec<u32> = (0..scene.tri_count()).rev().collect();
+    let pack = |ids: &[u32]| {
         let lanes: Vec<group::Lane> = ids
             .iter()
             .map(|&i| (i, scene.vertices(i), scene.prepared_triangle(i).1))
             .collect();
-        assert_eq!(scene.gather_group(ids), group::pack(&lanes), "ids {ids:?}");
+        group::pack(&lanes)
+    };
+    for width in 1..=8 {
+        for ids in all.chunks(width) {
+            if ids.len() <= 4 {
+                same_lanes(&scene.gather4(ids), &pack(ids), ids);
+            } else {
+                let (a, b) = ids.split_at(4);
+                same_lanes(&scene.gather8(ids), Pair(&pack(a), &pack(b)), ids);
+            }
+        }
+    }
+}
+
+/// Asserts that two sets of group lanes hold the same bits in every lane.
+fn same_lanes<G: GroupLanes, H: GroupLanes<L = G::L>>(g: G, h: H, ids: &[u32]) {
+    let bits = |x: G::L| {
+        x.to_array()
+            .as_ref()
+            .iter()
+            .map(|f| f.to_bits())
+            .collect::<Vec<_>>()
+    };
+    for k in 0..3 {
+        let (a, b) = (g.vertex(k), h.vertex(k));
+        for (x, y) in [(a.x, b.x), (a.y, b.y), (a.z, b.z)] {
+            assert_eq!(bits(x), bits(y), "ids {ids:?}, vertex {k}");
+        }
+    }
+    assert_eq!(bits(g.thresholds()), bits(h.thresholds()), "ids {ids:?}");
+    for j in 0..G::L::WIDTH {
+        assert_eq!(g.id(j), h.id(j), "ids {ids:?}, lane {j}");
+        let (a, b) = (g.lane_vertices(j), h.lane_vertices(j));
+        let words = |v: [Vec3; 3]| v.map(|p| p.to_array().map(f32::to_bits));
+        assert_eq!(words(a), words(b), "ids {ids:?}, lane {j}");
     }
 }
 

@@ -138,7 +138,9 @@
 use self::wide::WideNode;
 use crate::group::{self, Group};
 use crate::node::{LEAF, Node};
+use crate::simd::group::Gathered;
 use crate::simd::range::SceneRange;
+use crate::simd::{f32x4, f32x8};
 use crate::sphere::Sphere;
 use crate::triangle::Triangle;
 use glam::Vec3;
@@ -391,13 +393,10 @@ impl<'a> Scene<'a> {
         stored_vertices(&self.tris[i as usize])
     }
 
-    /// Triangles `ids` (one to four, `< tri_count`) as one group ([`crate::group`]), lane `j`
-    /// triangle `ids[j]` exactly as stored, the lanes past `ids.len()` padding: what the 4-wide
-    /// kernels test a listed leaf's triangles in, four at a time. The stored triangle's ten
-    /// words (vertices, threshold) are the group's rows, so this is a 10×4 transpose.
+    /// The stored rows of triangles `ids` (at most eight, `< tri_count`), the rows past
+    /// `ids.len()` the padding row (vertices 0, threshold `+inf`).
     #[inline(always)]
-    pub fn gather_group(&self, ids: &[u32]) -> Group {
-        use crate::simd::f32x4;
+    fn gather_rows(&self, ids: &[u32]) -> [&[f32; stride::TRIANGLE]; 8] {
         /// A padding lane's row: vertices 0, threshold `+inf`.
         const PAD: [f32; stride::TRIANGLE] = {
             let mut r = [0.0; stride::TRIANGLE];
@@ -405,11 +404,29 @@ impl<'a> Scene<'a> {
             r
         };
         let row = |j: usize| ids.get(j).map_or(&PAD, |&id| &self.tris[id as usize]);
-        let rows = [row(0), row(1), row(2), row(3)];
-        // Columns 0..4, 4..8 and 8..10 of the four rows, each chunk transposed in registers:
-        // vector m holds word m of the four rows, the group's words 4m..4m+4. (No `array::map`
-        // here: where it was not inlined, as when the core's code units grew, a single-ray
-        // stream of the dragon's random rays took twice the time copying its arrays.)
+        [
+            row(0),
+            row(1),
+            row(2),
+            row(3),
+            row(4),
+            row(5),
+            row(6),
+            row(7),
+        ]
+    }
+
+    /// Triangles `ids` (one to four, `< tri_count`) in the four lanes of one group test
+    /// ([`Gathered`]): what the 4-wide kernels test a listed leaf's last four or fewer triangles
+    /// in. The stored triangle's ten words (vertices, threshold) are the lanes' rows, so this is
+    /// a 10×4 transpose, in registers.
+    #[inline(always)]
+    pub fn gather4<'s>(&'s self, ids: &'s [u32]) -> Gathered<'s, f32x4> {
+        let rows = self.gather_rows(ids);
+        // Columns 0..4, 4..8 and 8..10 of the four rows, each chunk transposed: vector m holds
+        // word m of the four rows. (No `array::map` here: where it was not inlined, as when the
+        // core's code units grew, a single-ray stream of the dragon's random rays took twice the
+        // time copying its arrays.)
         let t4 = |at: usize| {
             let c =
                 |r: &[f32; stride::TRIANGLE]| f32x4::new([r[at], r[at + 1], r[at + 2], r[at + 3]]);
@@ -417,23 +434,55 @@ impl<'a> Scene<'a> {
         };
         let c2 = |r: &[f32; stride::TRIANGLE]| f32x4::new([r[8], r[9], 0.0, 0.0]);
         let t2 = f32x4::transpose([c2(rows[0]), c2(rows[1]), c2(rows[2]), c2(rows[3])]);
-        let mut g = [0u32; group::GROUP_WORDS];
         let (a, b) = (t4(0), t4(4));
-        let vectors = [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], t2[0], t2[1]];
-        for (m, v) in vectors.iter().enumerate() {
-            let x = v.to_array();
-            let w = group::WIDTH * m;
-            (g[w], g[w + 1], g[w + 2], g[w + 3]) = (
-                x[0].to_bits(),
-                x[1].to_bits(),
-                x[2].to_bits(),
-                x[3].to_bits(),
-            );
+        Gathered {
+            words: [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], t2[0], t2[1]],
+            rows,
+            ids,
         }
-        for j in 0..group::WIDTH {
-            g[group::slot::IDS + j] = ids.get(j).copied().unwrap_or(group::PAD_ID);
+    }
+
+    /// Triangles `ids` (five to eight, `< tri_count`) in the eight lanes of one test of two
+    /// groups ([`Gathered`]; lanes 0..4 the first four, as [`crate::simd::group::Pair`]): an
+    /// 8×8 transpose of the rows' first eight words, the last two gathered lane by lane.
+    #[inline(always)]
+    pub fn gather8<'s>(&'s self, ids: &'s [u32]) -> Gathered<'s, f32x8> {
+        let rows = self.gather_rows(ids);
+        let c = |r: &[f32; stride::TRIANGLE]| {
+            f32x8::new([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]])
+        };
+        let head = f32x8::transpose([
+            c(rows[0]),
+            c(rows[1]),
+            c(rows[2]),
+            c(rows[3]),
+            c(rows[4]),
+            c(rows[5]),
+            c(rows[6]),
+            c(rows[7]),
+        ]);
+        let word = |m: usize| {
+            f32x8::new([
+                rows[0][m], rows[1][m], rows[2][m], rows[3][m], rows[4][m], rows[5][m], rows[6][m],
+                rows[7][m],
+            ])
+        };
+        Gathered {
+            words: [
+                head[0],
+                head[1],
+                head[2],
+                head[3],
+                head[4],
+                head[5],
+                head[6],
+                head[7],
+                word(8),
+                word(9),
+            ],
+            rows,
+            ids,
         }
-        g
     }
 
     /// The geometric normal of primitive `prim` at a point `p` on it, not normalized: `e1 × e2`

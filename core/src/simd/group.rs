@@ -107,6 +107,52 @@ impl GroupLanes for Pair<'_> {
     }
 }
 
+/// The triangles of a listed leaf (at most a test's width, in order) gathered from the triangles
+/// section straight into lanes ([`crate::Scene::gather4`], [`crate::Scene::gather8`]): lane `j`
+/// the stored triangle `ids[j]`, bit for bit, the lanes past `ids.len()` padding (vertices 0,
+/// threshold `+inf`, never hit). The same lanes as the group, or the [`Pair`] of groups, that
+/// `group::pack` makes of those triangles, without writing them to memory and reading them back.
+#[derive(Clone, Copy, Debug)]
+pub struct Gathered<'a, L> {
+    /// Word `m` of every lane's stored row: the vertices' coordinates (`3k + axis` for vertex
+    /// `k`), then the threshold (word 9).
+    pub words: [L; 10],
+    /// Each lane's stored row (a padding lane's: the padding row), for the few lanes that the
+    /// far-origin fall-back retests alone.
+    pub rows: [&'a [f32; 10]; 8],
+    /// The lanes' triangles.
+    pub ids: &'a [u32],
+}
+
+impl<L: Lanes> GroupLanes for &Gathered<'_, L> {
+    type L = L;
+    #[inline(always)]
+    fn vertex(self, k: usize) -> Vec3x<L> {
+        Vec3x {
+            x: self.words[3 * k],
+            y: self.words[3 * k + 1],
+            z: self.words[3 * k + 2],
+        }
+    }
+    #[inline(always)]
+    fn thresholds(self) -> L {
+        self.words[9]
+    }
+    #[inline(always)]
+    fn lane_vertices(self, j: usize) -> [Vec3; 3] {
+        let r = self.rows[j];
+        [
+            Vec3::new(r[0], r[1], r[2]),
+            Vec3::new(r[3], r[4], r[5]),
+            Vec3::new(r[6], r[7], r[8]),
+        ]
+    }
+    #[inline(always)]
+    fn id(self, j: usize) -> u32 {
+        self.ids.get(j).copied().unwrap_or(crate::group::PAD_ID)
+    }
+}
+
 /// Möller–Trumbore of `ray` against the four triangles: lane `j` as
 /// [`crate::Triangle::intersect_prepared`] of triangle `j` with its stored threshold (padding
 /// lanes, `+inf`, never hit). The edges are the subtractions [`crate::Triangle::from_vertices`]
