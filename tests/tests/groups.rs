@@ -346,10 +346,10 @@ fn gathered_lanes_are_the_packed_groups_of_their_triangles() {
     for width in 1..=8 {
         for ids in all.chunks(width) {
             if ids.len() <= 4 {
-                same_lanes(&scene.gather4(ids), &pack(ids), ids);
+                same_lanes(scene.gather4(ids), &pack(ids), ids);
             } else {
                 let (a, b) = ids.split_at(4);
-                same_lanes(&scene.gather8(ids), Pair(&pack(a), &pack(b)), ids);
+                same_lanes(scene.gather8(ids), Pair(&pack(a), &pack(b)), ids);
             }
         }
     }

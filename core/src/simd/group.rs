@@ -117,14 +117,14 @@ pub struct Gathered<'a, L> {
     /// Word `m` of every lane's stored row: the vertices' coordinates (`3k + axis` for vertex
     /// `k`), then the threshold (word 9).
     pub words: [L; 10],
-    /// Each lane's stored row (a padding lane's: the padding row), for the few lanes that the
-    /// far-origin fall-back retests alone.
-    pub rows: [&'a [f32; 10]; 8],
+    /// The triangles section's rows, for the few lanes that the far-origin fall-back retests
+    /// alone (read again there, so that the gathered rows need not stay in memory).
+    pub tris: &'a [[f32; 10]],
     /// The lanes' triangles.
     pub ids: &'a [u32],
 }
 
-impl<L: Lanes> GroupLanes for &Gathered<'_, L> {
+impl<L: Lanes> GroupLanes for Gathered<'_, L> {
     type L = L;
     #[inline(always)]
     fn vertex(self, k: usize) -> Vec3x<L> {
@@ -140,7 +140,10 @@ impl<L: Lanes> GroupLanes for &Gathered<'_, L> {
     }
     #[inline(always)]
     fn lane_vertices(self, j: usize) -> [Vec3; 3] {
-        let r = self.rows[j];
+        // A padding lane (never hit, so never asked for) as the padding row's zero vertices.
+        let Some(r) = self.ids.get(j).map(|&id| &self.tris[id as usize]) else {
+            return [Vec3::ZERO; 3];
+        };
         [
             Vec3::new(r[0], r[1], r[2]),
             Vec3::new(r[3], r[4], r[5]),

@@ -77,9 +77,9 @@ impl Query for Closest {
                 // time in two groups, the last four or fewer in one.
                 for ids in ids.chunks(2 * WIDTH) {
                     if ids.len() > WIDTH {
-                        self.group::<C, _>(&scene.gather8(ids));
+                        self.group::<C, _>(scene.gather8(ids));
                     } else {
-                        self.group::<C, _>(&scene.gather4(ids));
+                        self.group::<C, _>(scene.gather4(ids));
                     }
                 }
                 return (self.query.tmax, false);
@@ -161,11 +161,11 @@ impl Query for Occlusion {
             if let LeafPrims::Many(ids) = prims {
                 self.found = ids.chunks(2 * WIDTH).any(|ids| {
                     if ids.len() > WIDTH {
-                        intersect_group::<C, _>(&scene.gather8(ids), ray, shear)
+                        intersect_group::<C, _>(scene.gather8(ids), ray, shear)
                             .mask
                             .any()
                     } else {
-                        intersect_group::<C, _>(&scene.gather4(ids), ray, shear)
+                        intersect_group::<C, _>(scene.gather4(ids), ray, shear)
                             .mask
                             .any()
                     }
