@@ -23,17 +23,15 @@
 //! with a ray `check_values` refuses traces nothing more once a thread finds it, and the caller
 //! reports the error as `check_values` words it.
 
-use crate::rays::{Batch, CHUNK, Columns, IDLE, MAX_PIECE, Rows, UNIT};
-use crate::run::{Cancel, cancelled};
+use crate::rays::{Batch, CHUNK, Columns, IDLE, MAX_PIECE, Rows, UNIT, trace_pieces};
+use crate::run::Cancel;
 use core::ops::Range;
 use glam::Vec3;
 use kdray_core::simd::{RayPacket, f32x4, f32x8};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config};
 use kdray_core::{Hit, Ray, Scene};
-use rayon::prelude::*;
 use std::mem::MaybeUninit;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Rays decided on (packets or stream) at a time: few enough that a run's rows stay in the caches
 /// from the decision to the packets (8 KiB).
@@ -132,19 +130,7 @@ pub fn intersect(scene: &Scene, batch: &Batch, mode: Mode, out: Answers, cancel:
             normals,
         })
         .collect();
-    let bad = AtomicBool::new(false);
-    let work = |p: Piece| {
-        if !bad.load(Ordering::Relaxed) && !cancelled(cancel) && !trace_piece(scene, batch, mode, p)
-        {
-            bad.store(true, Ordering::Relaxed);
-        }
-    };
-    if pieces.len() == 1 {
-        pieces.into_iter().for_each(work);
-    } else {
-        pieces.into_par_iter().for_each(work);
-    }
-    !bad.into_inner()
+    trace_pieces(pieces, cancel, |p| trace_piece(scene, batch, mode, p))
 }
 
 /// Whether rays `run` of `rows` come in packets of `width` as they are: at least 3 runs in 4 of

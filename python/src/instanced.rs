@@ -17,7 +17,7 @@
 use crate::Tree;
 use crate::block;
 use crate::closest::chunks_or_none;
-use crate::rays::{Batch, CHUNK, for_chunks};
+use crate::rays::{Batch, CHUNK, for_chunks, trace_pieces};
 use crate::run::{self, Cancel, cancelled};
 use crate::stop::{self, Stop};
 use crate::{RayArgs, mode, slice, value_error};
@@ -28,10 +28,8 @@ use kdray_core::traverse::Mode;
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use rayon::prelude::*;
 use self_cell::self_cell;
 use std::mem::MaybeUninit;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// What a top level holds: its words, the bottom scenes it indexes and the trees that own
 /// their words.
@@ -139,10 +137,10 @@ pub struct Top {
 /// placements, so a whole piece (up to `rays::MAX_PIECE` rays) could outlast Ctrl-C by seconds.
 const CANCEL_EVERY: usize = 1024;
 
-/// One piece of a batch's answers, rays `start..start + t.len()`, written in place (the arrays
-/// of `Tree.intersect`'s, and the hit's geometry and instance ids; `closest::Answers`).
-struct Piece<'a> {
-    start: usize,
+/// Where a batch's closest hits go (a whole batch's, or one piece's): `Tree.intersect`'s arrays
+/// (`closest::Answers`) and the hits' geometry and instance ids (−1 for a miss), every element
+/// written unless the batch is refused.
+struct Answers<'a> {
     t: &'a mut [MaybeUninit<f32>],
     prim: &'a mut [MaybeUninit<i64>],
     u: &'a mut [MaybeUninit<f32>],
@@ -153,8 +151,8 @@ struct Piece<'a> {
     normals: Option<&'a mut [MaybeUninit<f32>]>,
 }
 
-impl Piece<'_> {
-    /// Writes the answer of the piece's ray `j`: `t` in the batch's units, the triangle in its
+impl Answers<'_> {
+    /// Writes the answer of ray `j` (of these arrays): `t` in the batch's units, the triangle in its
     /// mesh's input order, the barycentrics `uv`, the hit's `[geometry, instance]` ids.
     #[inline]
     fn write(&mut self, j: usize, t: f32, prim: i64, [u, v]: [f32; 2], [g, i]: [i64; 2]) {
@@ -230,7 +228,8 @@ impl Top {
     fn trace(&self, batch: &Batch, mode: Mode, out: Answers, cancel: &Cancel) -> bool {
         let c = batch.pieces();
         let count = batch.n.div_ceil(c);
-        let pieces: Vec<Piece> = out
+        // Each piece: its first ray, and its part of every array.
+        let pieces: Vec<(usize, Answers)> = out
             .t
             .chunks_mut(c)
             .zip(out.prim.chunks_mut(c))
@@ -242,42 +241,38 @@ impl Top {
             .zip(chunks_or_none(out.normals, 3 * c, count))
             .enumerate()
             .map(
-                |(k, (((((((t, prim), u), v), geometry), instance), points), normals))| Piece {
-                    start: k * c,
-                    t,
-                    prim,
-                    u,
-                    v,
-                    geometry,
-                    instance,
-                    points,
-                    normals,
+                |(k, (((((((t, prim), u), v), geometry), instance), points), normals))| {
+                    let piece = Answers {
+                        t,
+                        prim,
+                        u,
+                        v,
+                        geometry,
+                        instance,
+                        points,
+                        normals,
+                    };
+                    (k * c, piece)
                 },
             )
             .collect();
-        let bad = AtomicBool::new(false);
-        let work = |p: Piece| {
-            if !bad.load(Ordering::Relaxed)
-                && !cancelled(cancel)
-                && !self.trace_piece(batch, mode, p, cancel)
-            {
-                bad.store(true, Ordering::Relaxed);
-            }
-        };
-        if pieces.len() == 1 {
-            // On the calling thread for a batch of at most `CHUNK` rays: nothing may ask rayon
-            // there (`Batch::pieces`).
-            pieces.into_iter().for_each(work);
-        } else {
-            pieces.into_par_iter().for_each(work);
-        }
-        !bad.into_inner()
+        trace_pieces(pieces, cancel, |(start, p)| {
+            self.trace_piece(batch, mode, start, p, cancel)
+        })
     }
 
-    /// Traces piece `p` of `batch`; false at a ray that `check_values` refuses.
-    fn trace_piece(&self, batch: &Batch, mode: Mode, mut p: Piece, cancel: &Cancel) -> bool {
+    /// Traces the piece of `batch` from ray `start` into `p` (its part of the answers); false
+    /// at a ray that `check_values` refuses.
+    fn trace_piece(
+        &self,
+        batch: &Batch,
+        mode: Mode,
+        start: usize,
+        mut p: Answers,
+        cancel: &Cancel,
+    ) -> bool {
         let (mut rays, mut lengths) = (Vec::new(), Vec::new());
-        if !batch.convert(p.start..p.start + p.t.len(), &mut rays, &mut lengths) {
+        if !batch.convert(start..start + p.t.len(), &mut rays, &mut lengths) {
             return false;
         }
         let walk = self.walk();
@@ -298,26 +293,13 @@ impl Top {
             let (g, i) = self.ids(h.user_id);
             p.write(j, t, prim_of(walk, &h), [h.u, h.v], [g, i]);
             if geometry {
-                let point = batch.point(p.start + j, t);
+                let point = batch.point(start + j, t);
                 let normal = walk.geometric_normal(&h, ray).normalize().to_array();
                 p.write_geometry(j, point, normal);
             }
         }
         true
     }
-}
-
-/// Where a batch's closest hits go: `Tree.intersect`'s arrays (`closest::Answers`) and the hits'
-/// geometry and instance ids (−1 for a miss), every element written unless the batch is refused.
-struct Answers<'a> {
-    t: &'a mut [MaybeUninit<f32>],
-    prim: &'a mut [MaybeUninit<i64>],
-    u: &'a mut [MaybeUninit<f32>],
-    v: &'a mut [MaybeUninit<f32>],
-    geometry: &'a mut [MaybeUninit<i64>],
-    instance: &'a mut [MaybeUninit<i64>],
-    points: Option<&'a mut [MaybeUninit<f32>]>,
-    normals: Option<&'a mut [MaybeUninit<f32>]>,
 }
 
 /// A hit's `t` in the batch's units (over the direction's length `len`).

@@ -24,6 +24,7 @@ use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config};
 use kdray_core::{Ray, Scene};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Rays per piece of work at least: enough to amortize a stream's sort and scheduling. A batch
 /// of at most this many rays is traced on the calling thread: handing a few rays to the pool
@@ -93,6 +94,29 @@ pub fn for_chunks<T: Send>(out: &mut [T], c: usize, work: impl Fn(usize, &mut [T
             .enumerate()
             .for_each(|(k, chunk)| work(k, chunk));
     }
+}
+
+/// Runs `trace` on every piece of a batch, on the current pool (on this thread when there is
+/// one piece: a batch of at most [`CHUNK`] rays, where nothing may ask rayon, `Batch::pieces`);
+/// the pieces not yet begun are skipped once a `trace` returns false (a ray that
+/// [`Batch::check_values`] refuses) or `cancel` is set. False if a `trace` did.
+pub fn trace_pieces<P: Send>(
+    pieces: Vec<P>,
+    cancel: &Cancel,
+    trace: impl Fn(P) -> bool + Sync,
+) -> bool {
+    let bad = AtomicBool::new(false);
+    let work = |p: P| {
+        if !bad.load(Ordering::Relaxed) && !cancelled(cancel) && !trace(p) {
+            bad.store(true, Ordering::Relaxed);
+        }
+    };
+    if pieces.len() == 1 {
+        pieces.into_iter().for_each(work);
+    } else {
+        pieces.into_par_iter().for_each(work);
+    }
+    !bad.into_inner()
 }
 
 /// Rays as numpy hands them over (module doc).
