@@ -437,7 +437,6 @@ impl<'a> Scene<'a> {
         let (a, b) = (t4(0), t4(4));
         Gathered {
             words: [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], t2[0], t2[1]],
-            tris: self.tris,
             ids,
         }
     }
@@ -480,7 +479,6 @@ impl<'a> Scene<'a> {
                 word(8),
                 word(9),
             ],
-            tris: self.tris,
             ids,
         }
     }

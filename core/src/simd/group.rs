@@ -117,9 +117,6 @@ pub struct Gathered<'a, L> {
     /// Word `m` of every lane's stored row: the vertices' coordinates (`3k + axis` for vertex
     /// `k`), then the threshold (word 9).
     pub words: [L; 10],
-    /// The triangles section's rows, for the few lanes that the far-origin fall-back retests
-    /// alone (read again there, so that the gathered rows need not stay in memory).
-    pub tris: &'a [[f32; 10]],
     /// The lanes' triangles.
     pub ids: &'a [u32],
 }
@@ -140,14 +137,11 @@ impl<L: Lanes> GroupLanes for Gathered<'_, L> {
     }
     #[inline(always)]
     fn lane_vertices(self, j: usize) -> [Vec3; 3] {
-        // A padding lane (never hit, so never asked for) as the padding row's zero vertices.
-        let Some(r) = self.ids.get(j).map(|&id| &self.tris[id as usize]) else {
-            return [Vec3::ZERO; 3];
-        };
+        let w = |m: usize| self.words[m].to_array().as_ref()[j];
         [
-            Vec3::new(r[0], r[1], r[2]),
-            Vec3::new(r[3], r[4], r[5]),
-            Vec3::new(r[6], r[7], r[8]),
+            Vec3::new(w(0), w(1), w(2)),
+            Vec3::new(w(3), w(4), w(5)),
+            Vec3::new(w(6), w(7), w(8)),
         ]
     }
     #[inline(always)]
