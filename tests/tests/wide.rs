@@ -12,7 +12,8 @@ use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::format::{FormatError, contents, header, seal};
 use kdray_core::traverse::wide::walk::{RaySetup, in_order, slab, slab_scalar};
 use kdray_core::traverse::wide::{
-    BOXES, EMPTY_BOX, LEAF_REF, NODE_WORDS, ORDERS, REFS, WIDTH, WideNode, set_slot_box, slot_box,
+    BOXES, EMPTY_BOX, LEAF_REF, NODE_WORDS, ORDERS, PART_REF, REFS, WIDTH, WideNode, set_slot_box,
+    slot_box,
 };
 use kdray_core::traverse::{Contents, Mixed, Mode, Triangles, Watertight};
 use kdray_core::{Hit, Ray, Scene};
@@ -364,9 +365,10 @@ fn damaged_wide_sections_are_refused() {
         .find_map(|i| {
             let count = (nodes[i][ORDERS] >> 24) as usize;
             let last = count.checked_sub(1)?;
-            (nodes[i][REFS + last] & LEAF_REF != 0 && last > 0).then_some((i, last))
+            let r = nodes[i][REFS + last];
+            (r & LEAF_REF != 0 && r & PART_REF == 0 && last > 0).then_some((i, last))
         })
-        .expect("some node whose last slot is a leaf");
+        .expect("some node whose last slot is a whole leaf");
     assert!(matches!(
         damaged(&words, |s| {
             s[at(ow, REFS + ok)] = 0;

@@ -8,7 +8,8 @@
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32 (a top level
 //!                     of instances, "KDRI", is refused with `FormatError::TopLevel`)
-//!  1  VERSION         12 (11 could carry a blocks section, retired since; 10 cut wide nodes
+//!  1  VERSION         13 (12 could not cut a leaf into parts in the wide section; 11 could
+//!                     carry a blocks section, retired since; 10 cut wide nodes
 //!                     three levels down, not greedily; 9 had no wide section; 8 had no groups section; 7 stored `+inf` as the threshold of a
 //!                     triangle whose `|e1 × e2|²` overflows f32, so fast mode never hit it; 6 had
 //!                     no blocks section, 5 stored edges, not vertices, 4 had no checksum: files
@@ -152,7 +153,7 @@ pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// that [`Scene::from_words`] can say what such an array is ([`FormatError::TopLevel`]).
 pub const TOP_LEVEL_MAGIC: u32 = u32::from_le_bytes(*b"KDRI");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 12;
+pub const VERSION: u32 = 13;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).
@@ -562,6 +563,24 @@ impl<'a> LeafPrims<'a> {
             LeafPrims::One(Some(p)) => core::slice::from_ref(p),
             LeafPrims::Many(s) => s,
             LeafPrims::One(None) | LeafPrims::Groups(_) => &[],
+        }
+    }
+
+    /// Part `part` of `parts` of the leaf (a wide node's reference, [`wide::LeafRef`]): its
+    /// items — index-list entries or groups — `part·n/parts .. (part+1)·n/parts`; a leaf of
+    /// one primitive is its last part's. `parts` ≥ 1 and `part < parts`.
+    #[inline(always)]
+    pub fn part(self, part: u32, parts: u32) -> Self {
+        // In u64: `part · n` overflows a 32-bit usize for leaves past 2²⁹ items.
+        let range = |n: usize| {
+            let at = |k: u32| (u64::from(k) * n as u64 / u64::from(parts)) as usize;
+            at(part)..at(part + 1)
+        };
+        match self {
+            LeafPrims::Many(s) => LeafPrims::Many(&s[range(s.len())]),
+            LeafPrims::Groups(g) => LeafPrims::Groups(&g[range(g.len())]),
+            LeafPrims::One(_) if range(1).is_empty() => LeafPrims::One(None),
+            one => one,
         }
     }
 

@@ -334,6 +334,8 @@ pub fn info(file: &Path) -> Result<()> {
             "layout          wide ({} wide nodes, {wide_bytes} bytes; {node_bytes} bytes of nodes)",
             scene.wide_nodes().len()
         );
+        let (cut, parts) = leaf_parts(scene.wide_nodes());
+        println!("leaf parts      {cut} leaves cut into {parts} parts, each with a box of its own");
     } else {
         println!("layout          nodes ({node_bytes} bytes of nodes)");
     }
@@ -352,4 +354,20 @@ pub fn info(file: &Path) -> Result<()> {
     }
     println!("build ms        {:.1}", scene.build_ms());
     Ok(())
+}
+
+/// How many leaves the wide nodes cut into parts, and into how many parts in all.
+fn leaf_parts(wide: &[kdray_core::format::wide::WideNode]) -> (usize, usize) {
+    use kdray_core::format::wide::{LEAF_REF, LeafRef, ORDERS, REFS};
+    let refs = wide.iter().flat_map(|node| {
+        let count = (node[ORDERS] >> 24) as usize;
+        node[REFS..REFS + count].iter().copied()
+    });
+    let parts = refs
+        .filter(|&r| r & LEAF_REF != 0)
+        .map(LeafRef::decode)
+        .filter(|r| r.parts > 1);
+    parts.fold((0, 0), |(cut, all), r| {
+        (cut + usize::from(r.part == 0), all + 1)
+    })
 }

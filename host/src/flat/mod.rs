@@ -355,7 +355,9 @@ fn sections(
             // The words were serialized just above: opened without validating them again (the
             // tests validate every tree the builder makes, wide sections included).
             let scene = Scene::from_built_words(&words).map_err(|e| format!("internal: {e}"))?;
-            crate::wide::to_wide(&scene, parallel)?
+            let wide = crate::wide::to_wide(&scene, parallel)?;
+            wide.reorder(&mut words);
+            wide.nodes
         }
     };
     Ok((words, wide))

@@ -11,9 +11,11 @@
 //! ```text
 //! words  0..48   boxes, struct of arrays: word 8·(2·axis + side) + slot, side 0 = low, 1 = high
 //!                (f32 bits); a slot past the node's count holds low = +∞, high = −∞
-//! words 48..56   references of slots 0..8: bit 31 set, a leaf: bits 0..31 index the leaf in the
-//!                node section (its count and payload, as there); clear, the index of a wide node;
-//!                0 in a slot past the count
+//! words 48..56   references of slots 0..8: bit 31 set, a leaf: with bit 30 clear, bits 0..30
+//!                index the leaf in the node section (its count and payload, as there); with
+//!                bit 30 set, a part of a leaf (see "Parts of a leaf"): bits 27..30 the part k,
+//!                bits 24..27 the parts m − 1, bits 0..24 the leaf; bit 31 clear, the index of
+//!                a wide node; 0 in a slot past the count
 //! words 56..64   one word per direction octant o (bit a of o set when the direction's component
 //!                a is negative, its sign bit, so −0 counts as negative): bits 3k..3k+3 are the
 //!                slot visited k-th front to back (k < count), 0 past it; bits 24..28 the count
@@ -40,6 +42,18 @@
 //! the split planes axis-aligned, the front-to-back order for any octant is the same walk with
 //! the near child first at each plane, the same for every ray of the octant. It is stored, not
 //! derived per node.
+//!
+//! # Parts of a leaf (since v13)
+//! A cut of fewer than eight children leaves slots free; a leaf child holding more than
+//! [`PART_ITEMS`] items (index-list entries, or groups of four triangles: [`PART_GROUPS`]) then
+//! takes several slots, as parts `0..m` of it, each holding the leaf's items `k·n/m ..
+//! (k+1)·n/m` with a box of its own — a box for every eight triangles or so, which a ray tests
+//! in the same 8-wide slab test as its siblings, as a BVH's leaves of a few triangles are
+//! (the builder orders a leaf's items along its longest axis, so the parts are slabs of it). The
+//! parts of a leaf fill consecutive slots of one wide node, all in the leaf's place in slot order; the
+//! per-octant order puts them where the leaf would be, nearest corner first. They lie in one cell
+//! and their boxes may overlap, which the walk allows (it skips a pending slot only when it is
+//! entered beyond the closest hit so far).
 //!
 //! # The boxes
 //! A slot's box lies inside its cell and contains what its child holds: for a leaf, the part of
@@ -77,6 +91,60 @@ pub const REFS: usize = 48;
 pub const ORDERS: usize = 56;
 /// A reference's leaf bit.
 pub const LEAF_REF: u32 = 1 << 31;
+/// A leaf reference's bit for a part of the leaf ("Parts of a leaf" in the module doc).
+pub const PART_REF: u32 = 1 << 30;
+/// The most parts a leaf is cut into (one wide node's slots).
+pub const MAX_PARTS: u32 = WIDTH as u32;
+/// Leaves that can be cut into parts: their node index is below this (24 bits of the reference).
+pub const PART_LEAVES: u32 = 1 << 24;
+/// Index-list entries a part holds at most, where the builder has the slots (one 8-wide test).
+pub const PART_ITEMS: usize = 8;
+/// Groups of four triangles a part holds at most, where the builder has the slots (two groups,
+/// one paired test).
+pub const PART_GROUPS: usize = 2;
+
+/// A leaf reference: the leaf's node index, the part `k` and the parts `m` (`0` and `1` for the
+/// whole leaf).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LeafRef {
+    /// The leaf's index in the node section.
+    pub leaf: u32,
+    /// Which part, `0..parts`.
+    pub part: u32,
+    /// How many parts the leaf is cut into (1: whole).
+    pub parts: u32,
+}
+
+impl LeafRef {
+    /// The leaf reference `r` (bit 31 set) decoded.
+    #[inline(always)]
+    pub fn decode(r: u32) -> Self {
+        if r & PART_REF == 0 {
+            Self {
+                leaf: r & !LEAF_REF,
+                part: 0,
+                parts: 1,
+            }
+        } else {
+            Self {
+                leaf: r & (PART_LEAVES - 1),
+                part: r >> 27 & 7,
+                parts: (r >> 24 & 7) + 1,
+            }
+        }
+    }
+
+    /// The reference word: whole leaves as before v13, parts with [`PART_REF`]. `leaf` must be
+    /// below [`PART_LEAVES`] when `parts > 1`, and `part < parts ≤ MAX_PARTS` (the writer checks).
+    #[inline]
+    pub fn encode(self) -> u32 {
+        if self.parts == 1 {
+            LEAF_REF | self.leaf
+        } else {
+            LEAF_REF | PART_REF | self.part << 27 | (self.parts - 1) << 24 | self.leaf
+        }
+    }
+}
 /// The deepest a wide node's cut reaches below the binary node it stands for: a node this deep
 /// in the subtree is never opened ([`frontier`]), which bounds a cut's path keys to this many bits.
 pub const MAX_OPEN_DEPTH: usize = 16;

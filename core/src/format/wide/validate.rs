@@ -12,8 +12,10 @@
 //!   takes the entered slots among the first `c` positions of the order word, so a slot missing
 //!   from them would never be entered, and one named twice would be entered twice per visit.
 //! - **Leaves.** The leaf references, in that slot order, are exactly the node section's
-//!   non-empty leaves in pre-order, each once: every primitive a leaf holds is reachable, and
-//!   each leaf's primitives are checked once, which keeps the pass linear.
+//!   non-empty leaves in pre-order, each once, or, for a leaf cut into `m` parts, its parts
+//!   `0..m` in consecutive slots of one wide node (each reference encoded as the writer encodes
+//!   it, [`LeafRef::encode`]): every primitive a leaf holds is reachable, and each leaf's
+//!   primitives are checked once, which keeps the pass linear.
 //! - **Boxes.** Each used slot's box is finite and inside its parent slot's box (the root's: the
 //!   scene box), and contains what its child holds: for a leaf, each hittable primitive's box
 //!   clipped to the leaf's cell. An empty box (low > high on an axis) only where the child holds
@@ -35,8 +37,8 @@
 //! node section passed once, each leaf's primitives checked once.
 
 use super::{
-    BOXES, Bounds, EMPTY_BOX, LEAF_REF, MAX_WIDE_DEPTH, ORDERS, REFS, WIDTH, WideNode, contains,
-    intersection, prim_box, slot_box,
+    BOXES, Bounds, EMPTY_BOX, LEAF_REF, LeafRef, MAX_WIDE_DEPTH, ORDERS, REFS, WIDTH, WideNode,
+    contains, intersection, prim_box, slot_box,
 };
 use crate::format::{FormatError, LeafPrims, MAX_DEPTH, Scene};
 use crate::group::{self, Group, slot};
@@ -176,9 +178,14 @@ pub fn validate(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
         .push(enter(0, scene.bounds(), 1)?)
         .map_err(|_| FormatError::BadDepth)?;
     let mut next = 1u32;
+    // The next part of a leaf cut into parts, and its cell: the next slot must be it.
+    let mut pending: Option<(LeafRef, Bounds)> = None;
     while let Some(top) = frames.last_mut() {
         let (w, k, count, depth) = *top;
         if k == count {
+            if pending.is_some() {
+                return Err(FormatError::BadWideNode { node: w });
+            }
             frames.pop();
             continue;
         }
@@ -187,19 +194,38 @@ pub fn validate(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
         let (r, b) = (stored[REFS + k], slot_box(stored, k));
         let empty = !b[0].cmple(b[1]).all();
         if r & LEAF_REF != 0 {
-            let (leaf, cell) = leaves.next().ok_or(FormatError::BadWideNode { node: w })?;
-            match (r & !LEAF_REF).cmp(&leaf) {
-                Ordering::Equal => {}
-                // A later leaf of the node tree: this one is left out of the wide section.
-                Ordering::Greater
-                    if r & !LEAF_REF < scene.node_count()
-                        && scene.node(r & !LEAF_REF).is_leaf() =>
-                {
-                    return Err(FormatError::WideLeafLeftOut { leaf });
-                }
-                _ => return Err(FormatError::BadWideNode { node: w }),
+            let part = LeafRef::decode(r);
+            if part.encode() != r {
+                return Err(FormatError::BadWideNode { node: w });
             }
-            let inside = match scene.leaf_prims(&scene.node(leaf)) {
+            let cell = match pending.take() {
+                Some((want, cell)) if want == part => cell,
+                Some(_) => return Err(FormatError::BadWideNode { node: w }),
+                None => {
+                    let (leaf, cell) = leaves.next().ok_or(FormatError::BadWideNode { node: w })?;
+                    match part.leaf.cmp(&leaf) {
+                        Ordering::Equal if part.part == 0 => {}
+                        // A later leaf of the node tree: this one is left out of the wide section.
+                        Ordering::Greater
+                            if part.leaf < scene.node_count()
+                                && scene.node(part.leaf).is_leaf() =>
+                        {
+                            return Err(FormatError::WideLeafLeftOut { leaf });
+                        }
+                        _ => return Err(FormatError::BadWideNode { node: w }),
+                    }
+                    cell
+                }
+            };
+            if part.part + 1 < part.parts {
+                let next_part = LeafRef {
+                    part: part.part + 1,
+                    ..part
+                };
+                pending = Some((next_part, cell));
+            }
+            let prims = scene.leaf_prims(&scene.node(part.leaf));
+            let inside = match prims.part(part.part, part.parts) {
                 LeafPrims::Groups(groups) => groups.iter().all(|g| group_inside(g, cell, b, empty)),
                 prims => prims.ids().all(|prim| {
                     prim_box(scene, prim)
@@ -211,7 +237,7 @@ pub fn validate(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError> {
                 return Err(FormatError::BadWideBox { node: w });
             }
         } else {
-            if r != next || r as usize >= n_wide {
+            if r != next || r as usize >= n_wide || pending.is_some() {
                 return Err(FormatError::BadWideNode { node: r });
             }
             if depth + 1 > MAX_WIDE_DEPTH {
@@ -250,7 +276,8 @@ pub fn forward_refs(scene: &Scene, wide: &[WideNode]) -> Result<(), FormatError>
         for k in 0..WIDTH {
             let r = stored[REFS + k];
             let ok = if r & LEAF_REF != 0 {
-                (r & !LEAF_REF) < scene.node_count()
+                let part = LeafRef::decode(r);
+                part.leaf < scene.node_count() && part.part < part.parts
             } else {
                 (w + 1..n_wide).contains(&(r as usize))
             };
