@@ -176,13 +176,26 @@ def test_identity_and_exact_translations_are_bit_identical_to_one_merged_scene(r
     directions = (directions * lengths[:, None]).astype(np.float32)
     ours, theirs = scene.intersect(origins, directions), merged.intersect(origins, directions)
     assert np.array_equal(ours.t.view(np.uint32), theirs.t.view(np.uint32))
-    assert np.array_equal(ours.u.view(np.uint32), theirs.u.view(np.uint32))
-    assert np.array_equal(ours.v.view(np.uint32), theirs.v.view(np.uint32))
     hit = theirs.prim >= 0
     assert hit.sum() > 5000
-    assert np.array_equal(ours.prim[hit], prim[theirs.prim[hit]])
-    assert np.array_equal(ours.geometry_id[hit], geometry[theirs.prim[hit]])
-    assert np.array_equal(ours.instance_id[hit], instance[theirs.prim[hit]])
+    assert np.array_equal(ours.prim >= 0, hit)
+    # Our triangle's index in the merged mesh, beside the one the merged walk named.
+    index = {key: k for k, key in enumerate(zip(geometry, instance, prim))}
+    named = np.array([index[key] for key in zip(ours.geometry_id[hit], ours.instance_id[hit],
+                                                 ours.prim[hit])])
+    same = named == theirs.prim[hit]
+    # Where the two walks name different triangles, ours is hit at that same t too: a tie
+    # (a ray through an edge the two share), which either walk may take, as the wide walk's
+    # parts of one leaf and another tree's leaves meet them in other orders
+    # (tests/tests/instances.rs checks the same of the core).
+    assert (~same).sum() < hit.sum() / 200
+    for ray, k in zip(np.flatnonzero(hit)[~same], named[~same]):
+        alone = kdray.Scene(v[f[k]].astype(np.float32), watertight=watertight)
+        t = alone.intersect(origins[ray], directions[ray]).t
+        assert t.view(np.uint32) == ours.t[ray].view(np.uint32), f"ray {ray}: not a tie"
+    both = np.flatnonzero(hit)[same]
+    assert np.array_equal(ours.u[both].view(np.uint32), theirs.u[both].view(np.uint32))
+    assert np.array_equal(ours.v[both].view(np.uint32), theirs.v[both].view(np.uint32))
     assert np.array_equal(scene.occluded(origins, directions), merged.occluded(origins, directions))
     # One ray at a time, as the batches.
     for r in range(0, 20000, 997):

@@ -249,11 +249,17 @@ fn part_boxes(
     let at = |k: u32| (u64::from(k) * n as u64 / u64::from(m)) as usize;
     for (part, b) in boxes[..m as usize].iter_mut().enumerate() {
         let part = part as u32;
-        *b = pass.keys[at(part)..at(part + 1)]
-            .iter()
-            .fold(EMPTY_BOX, |all, &key| {
-                union(all, items[key as u32 as usize])
-            });
+        let run = &mut pass.keys[at(part)..at(part + 1)];
+        *b = run.iter().fold(EMPTY_BOX, |all, &key| {
+            union(all, items[key as u32 as usize])
+        });
+        // Within a part, the leaf's own order (of its ids, ascending as the builder leaves
+        // them): two triangles of one part that tie at the same `t` resolve as they do in a
+        // leaf that is not cut (as a tree of the same triangles merged with others does).
+        for key in run.iter_mut() {
+            *key &= u64::from(u32::MAX);
+        }
+        insertion_sort(run);
     }
     pass.orders.extend([leaf, n as u32]);
     pass.orders.extend(pass.keys.iter().map(|&key| key as u32));

@@ -21,7 +21,7 @@
 //! branch (predicted: it is the same for the whole walk) that reads a NaN entry as `−∞` and a NaN
 //! exit as `+∞`, i.e. a ray lying in a box's face is inside it.
 
-use super::{BOXES, LEAF_REF, LeafRef, ORDERS, REFS, STACK, WIDTH, WideNode};
+use super::{BOXES, LEAF_REF, LeafRef, ORDERS, PART_REF, REFS, STACK, WIDTH, WideNode};
 use crate::format::Scene;
 use crate::ray::Ray;
 use crate::simd::{Lanes, f32x8};
@@ -189,8 +189,12 @@ pub fn walk_counted<C: Contents, Q: Query>(
     loop {
         if current & LEAF_REF != 0 {
             counts.leaves += 1;
-            let r = LeafRef::decode(current);
-            let prims = scene.leaf_prims(&scene.node(r.leaf)).part(r.part, r.parts);
+            let prims = if current & PART_REF == 0 {
+                scene.leaf_prims(&scene.node(current & !LEAF_REF))
+            } else {
+                let r = LeafRef::decode(current);
+                scene.leaf_prims(&scene.node(r.leaf)).part(r.part, r.parts)
+            };
             let (best, stop) = q.leaf::<C>(scene, prims);
             if stop {
                 return;
