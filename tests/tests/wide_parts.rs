@@ -15,30 +15,15 @@ use kdray_core::traverse::Mode;
 use kdray_core::traverse::wide::{BOXES, LEAF_REF, NODE_WORDS, ORDERS, REFS, WideNode};
 use kdray_core::{Ray, Scene};
 
-/// A sphere of `n`×`n` quads (two triangles each): a closed surface whose `fast` leaves hold
-/// a dozen triangles or more, as the packages' trees of scanned meshes do.
-fn sphere(n: usize) -> Geometry {
-    let at = |i: usize, j: usize| {
-        let (theta, phi) = (
-            core::f32::consts::PI * i as f32 / n as f32,
-            core::f32::consts::TAU * j as f32 / n as f32,
-        );
-        Vec3::new(
-            theta.sin() * phi.cos(),
-            theta.sin() * phi.sin(),
-            theta.cos(),
-        )
-    };
-    let mut triangles = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-        }
-    }
+/// The host's test meshes (`host/tests/meshes`): a UV sphere's `fast` leaves hold a dozen
+/// triangles or more, as the packages' trees of scanned meshes do.
+#[path = "../../host/tests/meshes/mod.rs"]
+mod meshes;
+
+/// A unit UV sphere of `n`×`n` quads.
+fn sphere(n: u32) -> Geometry {
     Geometry {
-        triangles,
+        triangles: meshes::uv_sphere(n, Vec3::ZERO, 1.0),
         ..Geometry::default()
     }
 }

@@ -40,7 +40,7 @@ pub fn to_wide(scene: &Scene, parallel: bool) -> Result<Wide, String> {
 pub struct Wide {
     /// The wide nodes.
     pub nodes: Vec<WideNode>,
-    /// For each leaf cut into parts: its node index, its item count `n`, then `n` positions,
+    /// For each leaf cut into parts: the index of its first item, its item count `n`, then `n` positions,
     /// the item that goes first, second, … (items: index-list entries or groups). The parts'
     /// boxes hold for the items in this order: [`Wide::reorder`] writes it into the words.
     orders: Vec<u32>,
@@ -110,8 +110,13 @@ fn moved(node: &WideNode, at: u32) -> WideNode {
 fn leaf_box(scene: &Scene, prims: LeafPrims, cell: Bounds) -> Bounds {
     prims
         .ids()
-        .filter_map(|p| prim_box(scene, p).and_then(|b| intersection(b, cell)))
+        .filter_map(|p| clipped_box(scene, p, cell))
         .fold(EMPTY_BOX, union)
+}
+
+/// Primitive `p`'s box clipped to `cell`, or `None` where it misses the cell or no kernel hits it.
+fn clipped_box(scene: &Scene, p: u32, cell: Bounds) -> Option<Bounds> {
+    prim_box(scene, p).and_then(|b| intersection(b, cell))
 }
 
 /// Appends the wide node standing for binary node `b` with cell `cell`, then its wide children

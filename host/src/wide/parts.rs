@@ -3,37 +3,33 @@
 //! and the order of each cut leaf's items (index-list entries or groups) that the parts' boxes
 //! were computed for, which [`Wide::reorder`] writes into the words.
 
-use super::{Wide, leaf_box, union};
+use super::{Wide, clipped_box, leaf_box, union};
 use kdray_core::Scene;
 use kdray_core::format::wide::{
     Bounds, EMPTY_BOX, Frontier, LeafRef, MAX_PARTS, NODE_WORDS, ORDERS, PART_GROUPS, PART_ITEMS,
-    PART_LEAVES, WIDTH, WideNode, intersection, prim_box, set_slot_box,
+    PART_LEAVES, WIDTH, WideNode, set_slot_box,
 };
 use kdray_core::format::{LeafPrims, header};
 use kdray_core::group::{self, GROUP_WORDS};
-use kdray_core::node::Node;
 
 impl Wide {
     /// Puts the items of the leaves cut into parts in the order their parts' boxes were
     /// computed for, in `words` (the node, index-list and groups sections the wide nodes were
     /// collapsed from).
     pub fn reorder(&self, words: &mut [u32]) {
-        let at = |k: usize| words[k] as usize;
-        let (nodes, indices, groups) = (
-            at(header::NODES_OFFSET),
-            at(header::INDICES_OFFSET),
-            at(header::GROUPS_OFFSET),
-        );
         let grouped = words[header::GROUP_COUNT] != 0;
-        let size = if grouped { GROUP_WORDS } else { 1 };
+        let (section, size) = if grouped {
+            (words[header::GROUPS_OFFSET] as usize, GROUP_WORDS)
+        } else {
+            (words[header::INDICES_OFFSET] as usize, 1)
+        };
         let mut old = Vec::new();
         let mut rest = &self.orders[..];
-        while let [leaf, n, tail @ ..] = rest {
-            let (leaf, n) = (*leaf as usize, *n as usize);
+        while let [start, n, tail @ ..] = rest {
+            let (start, n) = (*start as usize, *n as usize);
             let (order, next) = tail.split_at(n);
             rest = next;
-            let node = Node::from_words([words[nodes + 2 * leaf], words[nodes + 2 * leaf + 1]]);
-            let first = if grouped { groups } else { indices } + size * node.payload() as usize;
+            let first = section + size * start;
             let run = &mut words[first..first + size * n];
             old.clear();
             old.extend_from_slice(run);
@@ -147,8 +143,14 @@ pub(super) fn slots(scene: &Scene, f: &Frontier, pass: &mut Pass) -> Slots {
             if m == 1 {
                 out.boxes[at] = leaf_box(scene, prims[k], f.cells[k]);
             } else {
-                let leaf = (f.nodes[k], prims[k], f.cells[k]);
-                part_boxes(scene, leaf, m, &mut out.boxes[at..], pass);
+                let start = scene.node(f.nodes[k]).payload();
+                part_boxes(
+                    scene,
+                    (start, prims[k], f.cells[k]),
+                    m,
+                    &mut out.boxes[at..],
+                    pass,
+                );
             }
         }
         for part in 0..m {
@@ -195,32 +197,30 @@ pub(super) fn slots(scene: &Scene, f: &Frontier, pass: &mut Pass) -> Slots {
     out
 }
 
-/// The boxes of the `m` parts of `leaf` (its node index, primitives and cell), into
-/// `boxes[..m]`, once its items are ordered along the widest axis of their boxes' centres (their
-/// boxes clipped to the cell; ties by position): pushes `[leaf, n, order…]` onto the pass's
-/// orders, the positions of its `n` items in that order.
+/// The boxes of the `m` parts of a leaf (its first item's index in the index list or the groups,
+/// its primitives and its cell), into `boxes[..m]`, once its items are ordered along the widest
+/// axis of their boxes' centres (their boxes clipped to the cell; ties by position): pushes
+/// `[start, n, order…]` onto the pass's orders, the positions of its `n` items in that order.
 fn part_boxes(
     scene: &Scene,
-    (leaf, prims, cell): (u32, LeafPrims, Bounds),
+    (start, prims, cell): (u32, LeafPrims, Bounds),
     m: u32,
     boxes: &mut [Bounds],
     pass: &mut Pass,
 ) {
-    let clipped = |p: u32| prim_box(scene, p).and_then(|b| intersection(b, cell));
     let items = &mut pass.items;
     items.clear();
     match prims {
-        LeafPrims::Many(list) => {
-            items.extend(list.iter().map(|&p| clipped(p).unwrap_or(EMPTY_BOX)));
-        }
-        LeafPrims::Groups(groups) => items.extend(groups.iter().map(|g| {
-            group::ids(g)
-                .into_iter()
-                .filter(|&p| p != group::PAD_ID)
-                .filter_map(clipped)
-                .fold(EMPTY_BOX, union)
-        })),
-        LeafPrims::One(_) => unreachable!("a leaf of one primitive is never cut into parts"),
+        LeafPrims::Many(list) => items.extend(
+            list.iter()
+                .map(|&p| clipped_box(scene, p, cell).unwrap_or(EMPTY_BOX)),
+        ),
+        LeafPrims::Groups(groups) => items.extend(
+            groups
+                .iter()
+                .map(|g| leaf_box(scene, LeafPrims::Groups(core::slice::from_ref(g)), cell)),
+        ),
+        LeafPrims::One(_) => items.push(leaf_box(scene, prims, cell)),
     }
     let n = items.len();
     let centre = |b: &Bounds| (b[0] + b[1]) * 0.5;
@@ -261,7 +261,7 @@ fn part_boxes(
         }
         insertion_sort(run);
     }
-    pass.orders.extend([leaf, n as u32]);
+    pass.orders.extend([start, n as u32]);
     pass.orders.extend(pass.keys.iter().map(|&key| key as u32));
 }
 
