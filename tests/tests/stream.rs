@@ -1,14 +1,14 @@
 //! The ray-stream API against the one-ray walk, ray by ray, on random scenes stored with nodes
 //! only or with wide nodes: a stream without packets gives exactly the one-ray walk's hits (`t`,
 //! primitive, `u`, `v`, bit for bit) and occlusion; a stream with packets the same `t` bits, and
-//! either primitive where two tie at that `t` (as the packet walks do). Short slices are errors,
-//! not panics.
+//! either primitive where two tie at that `t` (as the packet walks do); the single rays over wide
+//! nodes walked in turns or one by one alike. Short slices are errors, not panics.
 
 use glam::Vec3;
 use kdray::Geometry;
 use kdray::build::{BuildParams, build};
 use kdray::flat::{Layout, Leaves, serialize_as};
-use kdray_core::traverse::stream::{self, Coherence, Config, Packets, StreamError};
+use kdray_core::traverse::stream::{self, Coherence, Config, Packets, StreamError, Turns};
 use kdray_core::traverse::{Mixed, Mode, Watertight};
 use kdray_core::{Hit, Ray, Scene};
 use kdray_tests::strategies::{grid_geometry, packet_rays, scene_words};
@@ -60,8 +60,13 @@ macro_rules! stream_matches_scalar {
                 let want: Vec<Hit> = rays.iter().map(|r| scene.intersect_in($mode, r)).collect();
                 let want_occ: Vec<bool> = rays.iter().map(|r| scene.occluded_in($mode, r)).collect();
                 let n = rays.len();
-                for packets in [Packets::Off, Packets::Four, Packets::Eight] {
-                    let config = Config { mode: $mode, packets, coherence };
+                // Every packet width, and the single rays over wide nodes in turns and one by one
+                // (these scenes are far below the size from which `Turns::Auto` takes turns).
+                let ways = [Packets::Off, Packets::Four, Packets::Eight]
+                    .into_iter()
+                    .flat_map(|p| [Turns::Always, Turns::Never].map(|t| (p, t)));
+                for (packets, turns) in ways {
+                    let config = Config { mode: $mode, packets, coherence, turns };
                     let mut scratch = vec![u64::MAX; stream::scratch_words(n)];
                     let mut hits = vec![Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 }; n];
                     stream::intersect(&scene, &config, &rays, &mut hits, &mut scratch).unwrap();

@@ -282,6 +282,19 @@ impl<'a> Scene<'a> {
         self.wide
     }
 
+    /// The bytes a walk reads from: the wide nodes, the nodes, the index lists, the triangles,
+    /// the spheres and the groups (not the normals, texture coordinates, materials or input ids,
+    /// which answers read once a ray).
+    #[inline]
+    pub fn walked_bytes(&self) -> usize {
+        core::mem::size_of_val(self.wide)
+            + core::mem::size_of_val(self.nodes)
+            + core::mem::size_of_val(self.indices)
+            + core::mem::size_of_val(self.tris)
+            + core::mem::size_of_val(self.spheres)
+            + core::mem::size_of_val(self.groups)
+    }
+
     /// This scene with its wide section set aside: the single-ray queries walk the nodes, to
     /// compare the walks on one file.
     #[inline]

@@ -8,6 +8,8 @@ use crate::ray::{Hit, Ray};
 use crate::simd::{Lanes, RayPacket};
 use crate::traverse::Contents;
 use crate::traverse::steps::{Closest, Occlusion, Query};
+#[cfg(feature = "wide")]
+use crate::traverse::wide::turns::walk_in_turns;
 
 /// A query answered for a whole stream: its per-ray answer, its single-ray query and its packet
 /// call.
@@ -68,16 +70,36 @@ impl Answer for AnyHits {
     }
 }
 
-/// Traces the rays `order` names as single rays, one after another, answers into `out`: the
-/// one-ray walk ([`Scene::walk`]: over the wide nodes when the scene has them and the core is
-/// built with the `wide` feature, else over the nodes).
+/// Traces the rays `order` names as single rays, answers into `out`: with `turns`, over the wide
+/// nodes (when the scene has them and the core is built with the `wide` feature) several at a
+/// time in turns ([`crate::traverse::wide::turns`]: the same answers); else one after another
+/// ([`Scene::walk`]).
 #[inline(always)]
 fn singles<A: Answer, C: Contents>(
     scene: &Scene,
     rays: &[Ray],
     order: impl Iterator<Item = usize>,
     out: &mut [A::Out],
+    turns: bool,
 ) {
+    #[cfg(not(feature = "wide"))]
+    let _ = turns;
+    #[cfg(feature = "wide")]
+    if turns && walks_wide(scene) {
+        let finish = |i: usize, q: &A::Q| {
+            if let Some(o) = out.get_mut(i) {
+                *o = A::answer(q);
+            }
+        };
+        return walk_in_turns::<C, A::Q>(
+            scene,
+            scene.wide_nodes(),
+            rays,
+            order,
+            A::query::<C>,
+            finish,
+        );
+    }
     for i in order {
         if let (Some(ray), Some(o)) = (rays.get(i), out.get_mut(i)) {
             let mut q = A::query::<C>(ray);
@@ -88,13 +110,14 @@ fn singles<A: Answer, C: Contents>(
 }
 
 /// The whole stream: `scratch` holds at least one `[key, index]` pair per ray. With
-/// `PACKETS`, coherent runs of `L::WIDTH` rays (by `rule`) are traced as packets.
+/// `PACKETS`, coherent runs of `L::WIDTH` rays (by `rule`) are traced as packets; with `turns`
+/// the single rays over wide nodes walk in turns.
 pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
     scene: &Scene,
     rays: &[Ray],
     out: &mut [A::Out],
     scratch: &mut [[u64; 2]],
-    rule: &Coherence,
+    (rule, turns): (&Coherence, bool),
 ) {
     let [lo, hi] = scene.bounds();
     // (An infinite fraction admits any origin, even in a scene box of zero size.)
@@ -108,7 +131,8 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
     const { assert!(L::WIDTH <= 16) };
     let width = L::WIDTH;
     // Coherent runs of the input as it comes (a camera's tiles), the rest keyed for sorting, or,
-    // over wide nodes, traced one by one at once.
+    // over wide nodes, traced as single rays: one by one at once, or listed in input order to be
+    // walked in turns.
     let alone = walks_wide(scene);
     let mut m = 0;
     for (c, chunk) in rays.chunks(width).enumerate() {
@@ -116,16 +140,21 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
             trace_packet::<A, C, L>(scene, chunk, c * width, |i| i, out);
             continue;
         }
-        if alone {
-            singles::<A, C>(scene, rays, c * width..c * width + chunk.len(), out);
+        if alone && !turns {
+            singles::<A, C>(scene, rays, c * width..c * width + chunk.len(), out, false);
             continue;
         }
         for (k, ray) in chunk.iter().enumerate() {
             if let Some(slot) = scratch.get_mut(m) {
-                *slot = [key(ray, lo, scale), (c * width + k) as u64];
+                let sort_key = if alone { 0 } else { key(ray, lo, scale) };
+                *slot = [sort_key, (c * width + k) as u64];
                 m += 1;
             }
         }
+    }
+    if alone {
+        let order = scratch[..m].iter().map(|e| e[1] as usize);
+        return singles::<A, C>(scene, rays, order, out, turns);
     }
     let keys = &mut scratch[..m];
     keys.sort_unstable();
@@ -158,7 +187,7 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
         i += 1;
     }
     let order = keys[..n_singles].iter().map(|e| e[1] as usize);
-    singles::<A, C>(scene, rays, order, out);
+    singles::<A, C>(scene, rays, order, out, turns);
 }
 
 /// Whether the scene's single rays walk wide nodes. Then a ray outside a coherent run of the input

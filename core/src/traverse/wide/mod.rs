@@ -4,4 +4,5 @@
 
 pub use crate::format::wide::*;
 
+pub mod turns;
 pub mod walk;

@@ -184,18 +184,12 @@ pub fn walk_counted<C: Contents, Q: Query>(
     }
     let setup = RaySetup::new(ray);
     let mut limit = limit_for(ray.tmax);
-    let mut stack: heapless::Vec<(u32, f32), STACK> = heapless::Vec::new();
+    let mut stack: Stack = heapless::Vec::new();
     let mut current = 0u32;
     loop {
         if current & LEAF_REF != 0 {
             counts.leaves += 1;
-            let prims = if current & PART_REF == 0 {
-                scene.leaf_prims(&scene.node(current & !LEAF_REF))
-            } else {
-                let r = LeafRef::decode(current);
-                scene.leaf_prims(&scene.node(r.leaf)).part(r.part, r.parts)
-            };
-            let (best, stop) = q.leaf::<C>(scene, prims);
+            let (best, stop) = visit_leaf::<C, Q>(scene, current, q);
             if stop {
                 return;
             }
@@ -204,45 +198,143 @@ pub fn walk_counted<C: Contents, Q: Query>(
             counts.nodes += 1;
             // Validation made every reference a node index in range.
             let node = &wide[current as usize];
-            let (mask, entry) = slab::<C>(node, &setup, limit);
-            if mask != 0 {
-                let order = node[ORDERS + setup.octant];
-                if mask.is_power_of_two() {
-                    current = node[REFS + mask.trailing_zeros() as usize];
-                    continue;
-                }
-                // The entered slots front to back: the nearest next, the others pushed
-                // farthest first so that they pop in order. At most 7 per level: the push
-                // cannot fail. Validation made the count's positions name every used slot, and
-                // only used slots are entered, so `front` is not empty; if it were, the walk
-                // would pop as for a miss.
-                let mut front = in_order(order, mask);
-                if front != 0 {
-                    let slot = |p: u32| (order >> (3 * p) & 7) as usize;
-                    let nearest = slot(front.trailing_zeros());
-                    front &= front - 1;
-                    while front != 0 {
-                        let p = 31 - front.leading_zeros();
-                        let s = slot(p);
-                        let _ = stack.push((node[REFS + s], entry[s]));
-                        front ^= 1 << p;
-                    }
-                    current = node[REFS + nearest];
-                    continue;
-                }
+            if let Some(next) = enter::<C>(node, &setup, limit, &mut stack) {
+                current = next;
+                continue;
             }
         }
-        // The next pending child entered before the closest hit (the stack is ordered only
-        // within one node's children).
-        loop {
-            match stack.pop() {
-                None => return,
-                Some((next, t)) if t <= limit => {
-                    current = next;
-                    break;
-                }
-                Some(_) => {}
+        match pop(&mut stack, limit) {
+            Some(next) => current = next,
+            None => return,
+        }
+    }
+}
+
+/// A walk's pending children: a reference and its entry distance.
+pub(crate) type Stack = heapless::Vec<(u32, f32), STACK>;
+
+/// Tests the primitives of leaf reference `r` (a whole leaf or a part) for `q`.
+#[inline(always)]
+fn visit_leaf<C: Contents, Q: Query>(scene: &Scene, r: u32, q: &mut Q) -> (f32, bool) {
+    let prims = if r & PART_REF == 0 {
+        scene.leaf_prims(&scene.node(r & !LEAF_REF))
+    } else {
+        let r = LeafRef::decode(r);
+        scene.leaf_prims(&scene.node(r.leaf)).part(r.part, r.parts)
+    };
+    q.leaf::<C>(scene, prims)
+}
+
+/// The slab test of `node` for the ray of `setup`: the nearest entered child to visit next, the
+/// others pushed onto `stack` farthest first so that they pop in order (`None`: none entered).
+#[inline(always)]
+fn enter<C: Contents>(
+    node: &WideNode,
+    setup: &RaySetup,
+    limit: f32,
+    stack: &mut Stack,
+) -> Option<u32> {
+    let (mask, entry) = slab::<C>(node, setup, limit);
+    if mask == 0 {
+        return None;
+    }
+    let order = node[ORDERS + setup.octant];
+    if mask.is_power_of_two() {
+        return Some(node[REFS + mask.trailing_zeros() as usize]);
+    }
+    // The entered slots front to back. At most 7 pushed per level: the push cannot fail.
+    // Validation made the count's positions name every used slot, and only used slots are
+    // entered, so `front` is not empty; if it were, the walk would pop as for a miss.
+    let mut front = in_order(order, mask);
+    if front == 0 {
+        return None;
+    }
+    let slot = |p: u32| (order >> (3 * p) & 7) as usize;
+    let nearest = slot(front.trailing_zeros());
+    front &= front - 1;
+    while front != 0 {
+        let p = 31 - front.leading_zeros();
+        let s = slot(p);
+        let _ = stack.push((node[REFS + s], entry[s]));
+        front ^= 1 << p;
+    }
+    Some(node[REFS + nearest])
+}
+
+/// The next pending child entered before the closest hit (the stack is ordered only within one
+/// node's children), or `None` when none is left.
+#[inline(always)]
+fn pop(stack: &mut Stack, limit: f32) -> Option<u32> {
+    loop {
+        match stack.pop() {
+            None => return None,
+            Some((next, t)) if t <= limit => return Some(next),
+            Some(_) => {}
+        }
+    }
+}
+
+/// One ray's walk in progress: its setup, the farthest entry still of use, the pending children
+/// and the reference to visit next. [`Walk::step`] advances it by one wide node or one leaf, as
+/// one turn of [`walk_counted`]'s loop, so that several rays can be walked in turns
+/// ([`super::turns`]).
+#[derive(Clone, Debug)]
+pub(crate) struct Walk {
+    setup: RaySetup,
+    limit: f32,
+    stack: Stack,
+    current: u32,
+}
+
+impl Walk {
+    /// The walk of `ray` (finite: the caller checked) from the root.
+    #[inline(always)]
+    pub(crate) fn new(ray: &Ray) -> Self {
+        Self {
+            setup: RaySetup::new(ray),
+            limit: limit_for(ray.tmax),
+            stack: heapless::Vec::new(),
+            current: 0,
+        }
+    }
+
+    /// Starts this walk again for `ray` (finite), in place (the stack is not moved).
+    #[inline(always)]
+    pub(crate) fn restart(&mut self, ray: &Ray) {
+        self.setup = RaySetup::new(ray);
+        self.limit = limit_for(ray.tmax);
+        self.stack.clear();
+        self.current = 0;
+    }
+
+    /// Visits the next wide node or leaf for `q` over `wide` (not empty); `false` once the walk
+    /// is over.
+    #[inline(always)]
+    pub(crate) fn step<C: Contents, Q: Query>(
+        &mut self,
+        scene: &Scene,
+        wide: &[WideNode],
+        q: &mut Q,
+    ) -> bool {
+        let current = self.current;
+        if current & LEAF_REF != 0 {
+            let (best, stop) = visit_leaf::<C, Q>(scene, current, q);
+            if stop {
+                return false;
             }
+            self.limit = limit_for(best);
+        } else if let Some(node) = wide.get(current as usize)
+            && let Some(next) = enter::<C>(node, &self.setup, self.limit, &mut self.stack)
+        {
+            self.current = next;
+            return true;
+        }
+        match pop(&mut self.stack, self.limit) {
+            Some(next) => {
+                self.current = next;
+                true
+            }
+            None => false,
         }
     }
 }
