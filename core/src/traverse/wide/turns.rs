@@ -4,8 +4,11 @@
 //! A walk over a large mesh waits on memory: each wide node and each leaf's triangles are read
 //! once their reference is known, so one ray's cache misses come one after another, and the
 //! processor, which runs a few hundred instructions ahead, finds little else to do meanwhile.
-//! Two rays in turns give it a second, independent chain of loads to work on while the first
-//! waits. Each ray's walk is the same sequence of steps as [`super::walk::walk_counted`]'s, so the
+//! Rays in turns give it other, independent chains of loads to work on while one waits: four
+//! took 0.79–0.82× the time of one by one on the dragon's random rays and 0.85–0.92× on its
+//! diffuse ones (docs/BENCHMARKS.md, "Single rays in turns"), for some 40 % more instructions,
+//! which is why the stream takes turns only on large trees ([`crate::traverse::stream::Turns`]).
+//! Each ray's walk is the same sequence of steps as [`super::walk::walk_counted`]'s, so the
 //! answers are the same bit for bit; only the order in which the work is done changes.
 
 use super::WideNode;
