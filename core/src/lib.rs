@@ -72,8 +72,7 @@
 //!   [`traverse::packet`], 4- and 8-wide packets; [`traverse::wide`], the single-ray walk over
 //!   the tree collapsed into eight-wide nodes with tight boxes; [`traverse::stream`], ray
 //!   streams — many rays in one call, sorted into packets and single rays (over a large tree's
-//!   wide nodes, several at a time in turns: [`traverse::wide::turns`]), answers in input
-//!   order.
+//!   wide nodes, several at a time in turns, but for WebAssembly), answers in input order.
 //! - [`render`]: the render kernel, a path tracer writing into a caller's buffer.
 //! - [`description`]: the render description (camera, settings, materials, lights) that a target
 //!   reads next to the scene's words; [`words`]: bytes (`include_bytes!`, a fetch) viewed as

@@ -8,7 +8,7 @@ use crate::ray::{Hit, Ray};
 use crate::simd::{Lanes, RayPacket};
 use crate::traverse::Contents;
 use crate::traverse::steps::{Closest, Occlusion, Query};
-#[cfg(feature = "wide")]
+#[cfg(all(feature = "wide", not(target_arch = "wasm32")))]
 use crate::traverse::wide::turns::walk_in_turns;
 
 /// A query answered for a whole stream: its per-ray answer, its single-ray query and its packet
@@ -70,36 +70,16 @@ impl Answer for AnyHits {
     }
 }
 
-/// Traces the rays `order` names as single rays, answers into `out`: with `turns`, over the wide
-/// nodes (when the scene has them and the core is built with the `wide` feature) several at a
-/// time in turns ([`crate::traverse::wide::turns`]: the same answers); else one after another
-/// ([`Scene::walk`]).
+/// Traces the rays `order` names as single rays, one after another, answers into `out`: the
+/// one-ray walk ([`Scene::walk`]: over the wide nodes when the scene has them and the core is
+/// built with the `wide` feature, else over the nodes).
 #[inline(always)]
 fn singles<A: Answer, C: Contents>(
     scene: &Scene,
     rays: &[Ray],
     order: impl Iterator<Item = usize>,
     out: &mut [A::Out],
-    turns: bool,
 ) {
-    #[cfg(not(feature = "wide"))]
-    let _ = turns;
-    #[cfg(feature = "wide")]
-    if turns && walks_wide(scene) {
-        let finish = |i: usize, q: &A::Q| {
-            if let Some(o) = out.get_mut(i) {
-                *o = A::answer(q);
-            }
-        };
-        return walk_in_turns::<C, A::Q>(
-            scene,
-            scene.wide_nodes(),
-            rays,
-            order,
-            A::query::<C>,
-            finish,
-        );
-    }
     for i in order {
         if let (Some(ray), Some(o)) = (rays.get(i), out.get_mut(i)) {
             let mut q = A::query::<C>(ray);
@@ -108,6 +88,10 @@ fn singles<A: Answer, C: Contents>(
         }
     }
 }
+
+/// Whether this build can walk single rays in turns: with wide nodes, and not for WebAssembly
+/// ([`super::Turns`] says why).
+const TURNS_BUILT: bool = cfg!(all(feature = "wide", not(target_arch = "wasm32")));
 
 /// The whole stream: `scratch` holds at least one `[key, index]` pair per ray. With
 /// `PACKETS`, coherent runs of `L::WIDTH` rays (by `rule`) are traced as packets; with `turns`
@@ -134,6 +118,7 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
     // over wide nodes, traced as single rays: one by one at once, or listed in input order to be
     // walked in turns.
     let alone = walks_wide(scene);
+    let turns = TURNS_BUILT && alone && turns;
     let mut m = 0;
     for (c, chunk) in rays.chunks(width).enumerate() {
         if PACKETS && run_length(chunk.iter(), rule, max_origin2) == width {
@@ -141,20 +126,27 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
             continue;
         }
         if alone && !turns {
-            singles::<A, C>(scene, rays, c * width..c * width + chunk.len(), out, false);
+            singles::<A, C>(scene, rays, c * width..c * width + chunk.len(), out);
             continue;
         }
         for (k, ray) in chunk.iter().enumerate() {
             if let Some(slot) = scratch.get_mut(m) {
-                let sort_key = if alone { 0 } else { key(ray, lo, scale) };
+                let sort_key = if turns { 0 } else { key(ray, lo, scale) };
                 *slot = [sort_key, (c * width + k) as u64];
                 m += 1;
             }
         }
     }
-    if alone {
+    #[cfg(all(feature = "wide", not(target_arch = "wasm32")))]
+    if turns {
+        let finish = |i: usize, q: &A::Q| {
+            if let Some(o) = out.get_mut(i) {
+                *o = A::answer(q);
+            }
+        };
         let order = scratch[..m].iter().map(|e| e[1] as usize);
-        return singles::<A, C>(scene, rays, order, out, turns);
+        let wide = scene.wide_nodes();
+        return walk_in_turns::<C, A::Q>(scene, wide, rays, order, A::query::<C>, finish);
     }
     let keys = &mut scratch[..m];
     keys.sort_unstable();
@@ -187,7 +179,7 @@ pub(crate) fn stream<A: Answer, C: Contents, L: Lanes, const PACKETS: bool>(
         i += 1;
     }
     let order = keys[..n_singles].iter().map(|e| e[1] as usize);
-    singles::<A, C>(scene, rays, order, out, turns);
+    singles::<A, C>(scene, rays, order, out);
 }
 
 /// Whether the scene's single rays walk wide nodes. Then a ray outside a coherent run of the input

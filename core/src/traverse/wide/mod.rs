@@ -4,5 +4,6 @@
 
 pub use crate::format::wide::*;
 
+#[cfg(not(target_arch = "wasm32"))]
 pub mod turns;
 pub mod walk;

@@ -278,6 +278,7 @@ fn pop(stack: &mut Stack, limit: f32) -> Option<u32> {
 /// and the reference to visit next. [`Walk::step`] advances it by one wide node or one leaf, as
 /// one turn of [`walk_counted`]'s loop, so that several rays can be walked in turns
 /// ([`super::turns`]).
+#[cfg(not(target_arch = "wasm32"))]
 #[derive(Clone, Debug)]
 pub(crate) struct Walk {
     setup: RaySetup,
@@ -286,6 +287,7 @@ pub(crate) struct Walk {
     current: u32,
 }
 
+#[cfg(not(target_arch = "wasm32"))]
 impl Walk {
     /// The walk of `ray` (finite: the caller checked) from the root.
     #[inline(always)]
