@@ -27,3 +27,9 @@ pub mod peer_bvh;
 #[cfg(feature = "embree")]
 pub mod peer_embree;
 pub mod setup;
+
+/// The median of `v` (the upper one of an even count; NaN when empty), for timed rounds.
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}

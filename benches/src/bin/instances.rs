@@ -22,6 +22,7 @@ use kdray::build::build;
 use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray::instances::{Moved, Placement, TopLevel, top_level};
 use kdray::rays::{diffuse_rays, framing_camera, primary_rays};
+use kdray_benches::median;
 use kdray_core::instance::{self, Affine, InstanceHit, InstancedScene};
 use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
 use kdray_core::traverse::Mode;
@@ -149,11 +150,6 @@ fn alternate(repeat: usize, mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f
         tb.push(start.elapsed().as_secs_f64() * 1e3);
     }
     (median(ta), median(tb))
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// Called after each pair of timed runs: a name for callgrind's `--dump-before`, so that with

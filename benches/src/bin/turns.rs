@@ -8,6 +8,7 @@
 //! ```
 //! `TREE.kdt` from `kdray build`, `RAYS.bin` from `kdray rays` (or any rays file); one thread.
 
+use kdray_benches::median;
 use kdray_core::format::Scene;
 use kdray_core::ray::{Hit, Ray};
 use kdray_core::traverse::stream::{self, Config, Packets, Turns};
@@ -27,11 +28,6 @@ fn run(scene: &Scene, turns: Turns, rays: &[Ray], hits: &mut [Hit], scratch: &mu
         panic!("sized by the caller: {e}");
     }
     start.elapsed().as_secs_f64() * 1e9 / rays.len().max(1) as f64
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 fn main() -> Res<()> {

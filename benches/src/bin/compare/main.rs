@@ -18,17 +18,13 @@ mod args;
 mod report;
 
 use args::{Command, USAGE};
+use kdray_benches::median;
 use kdray_benches::peer_bvh::BvhPeer;
 use kdray_benches::setup::{Workload, to_input_ids, trace_packets, trace_scalar};
 use kdray_core::simd::{f32x4, f32x8};
 use kdray_core::{Hit, Ray};
 use report::{Family, Row};
 use std::time::Instant;
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 /// Median Mrays/s of `trace` over `repeat` runs, and the hits of the last run.
 fn time(rays: &[Ray], repeat: usize, mut trace: impl FnMut(&[Ray], &mut [Hit])) -> (f64, Vec<Hit>) {

@@ -49,7 +49,9 @@ pub(crate) fn walk_in_turns<C: Contents, Q: Query>(
         }
         None
     };
-    let mut walks: [Walk; TURNS] = core::array::from_fn(|_| Walk::new(&IDLE));
+    // Each walk is restarted for its first ray before it steps: any finite ray sets it up.
+    let idle = Ray::new(glam::Vec3::ZERO, glam::Vec3::Z);
+    let mut walks: [Walk; TURNS] = core::array::from_fn(|_| Walk::new(&idle));
     let mut live: [Option<(usize, Q)>; TURNS] = core::array::from_fn(|_| None);
     for (walk, slot) in walks.iter_mut().zip(&mut live) {
         *slot = next(walk, &mut finish);
@@ -70,11 +72,3 @@ pub(crate) fn walk_in_turns<C: Contents, Q: Query>(
         }
     }
 }
-
-/// A finite ray that stands in for none (an idle walk's setup).
-const IDLE: Ray = Ray {
-    origin: glam::Vec3::ZERO,
-    dir: glam::Vec3::Z,
-    tmin: 0.0,
-    tmax: 0.0,
-};
