@@ -13,7 +13,8 @@
 //!   `rtcIntersect1` and `rtcIntersect8`; feature `embree`, which links `libembree3` (Debian:
 //!   `libembree-dev`, installed by `scripts/bench-setup.sh`).
 //!
-//! - [`front`]: the builder settings that `front` (docs/BUILD.md, "The front") measures.
+//! - [`front`]: the builder settings that `front` (docs/BUILD.md, "The front") measures, and
+//!   [`knot`]: the npm benchmarks' torus knot, made natively.
 //! - [`setup::Workload`]: the protocol's mesh, tree and ray sets, for each of the camera framings
 //!   in [`framing`] (loose and tight).
 //!
@@ -23,6 +24,7 @@
 
 pub mod framing;
 pub mod front;
+pub mod knot;
 pub mod peer_bvh;
 #[cfg(feature = "embree")]
 pub mod peer_embree;
