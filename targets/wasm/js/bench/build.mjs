@@ -1,6 +1,6 @@
 // Build times only, kdray against three-mesh-bvh in Node, one thread, the same meshes:
-// kdray's Scene.build at both qualities (options.quality; triangle-group leaves, the default),
-// three-mesh-bvh's default (CENTER) and SAH builds.
+// kdray's Scene.build at both qualities (options.quality) with index-list leaves (the default)
+// and with triangle groups (options.leaves), three-mesh-bvh's default (CENTER) and SAH builds.
 //
 //   node bench/build.mjs [--rounds N] [--meshes bunny,torusknot,dragon]
 //
@@ -25,6 +25,8 @@ const median = (xs) => { const s = [...xs].sort((a, b) => a - b); return s.lengt
 const variants = {
   'kdray fast': async (m) => (await Scene.build(m.positions, m.indices, { quality: 'fast' })).dispose(),
   'kdray high': async (m) => (await Scene.build(m.positions, m.indices, { quality: 'high' })).dispose(),
+  'kdray fast, groups': async (m) => (await Scene.build(m.positions, m.indices, { quality: 'fast', leaves: 'groups' })).dispose(),
+  'kdray high, groups': async (m) => (await Scene.build(m.positions, m.indices, { quality: 'high', leaves: 'groups' })).dispose(),
   'three-mesh-bvh CENTER': async (m) => { const g = geometryOf(m); const t0 = performance.now(); new MeshBVH(g, { strategy: CENTER }); return performance.now() - t0; },
   'three-mesh-bvh SAH': async (m) => { const g = geometryOf(m); const t0 = performance.now(); new MeshBVH(g, { strategy: SAH }); return performance.now() - t0; },
 };
@@ -53,9 +55,9 @@ for (const name of meshNames) {
 }
 const cpu = os.cpus()[0]?.model ?? 'unknown CPU';
 console.log(`Node ${process.version}, ${cpu} (${os.cpus().length} cores, load ${os.loadavg().map((x) => x.toFixed(1)).join(' ')}), module ${moduleVariant()}, medians of ${rounds} rounds (3 for the dragon)`);
-console.log('| mesh | kdray fast ms | kdray high ms | three-mesh-bvh CENTER ms | three-mesh-bvh SAH ms | fast ÷ CENTER | fast ÷ SAH | high ÷ SAH |');
-console.log('|---|---:|---:|---:|---:|---:|---:|---:|');
+console.log('| mesh | kdray fast ms | kdray high ms | fast, groups ms | high, groups ms | three-mesh-bvh CENTER ms | three-mesh-bvh SAH ms | fast ÷ CENTER | fast ÷ SAH | high ÷ SAH |');
+console.log('|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|');
 for (const { name, tris, ms } of rows) {
-  const [f, h, c, s] = ['kdray fast', 'kdray high', 'three-mesh-bvh CENTER', 'three-mesh-bvh SAH'].map((k) => ms[k]);
-  console.log(`| ${name} (${tris.toLocaleString('en')} tris) | ${f.toFixed(1)} | ${h.toFixed(1)} | ${c.toFixed(1)} | ${s.toFixed(1)} | ${(f / c).toFixed(2)} | ${(f / s).toFixed(2)} | ${(h / s).toFixed(2)} |`);
+  const [f, h, fg, hg, c, s] = ['kdray fast', 'kdray high', 'kdray fast, groups', 'kdray high, groups', 'three-mesh-bvh CENTER', 'three-mesh-bvh SAH'].map((k) => ms[k]);
+  console.log(`| ${name} (${tris.toLocaleString('en')} tris) | ${f.toFixed(1)} | ${h.toFixed(1)} | ${fg.toFixed(1)} | ${hg.toFixed(1)} | ${c.toFixed(1)} | ${s.toFixed(1)} | ${(f / c).toFixed(2)} | ${(f / s).toFixed(2)} | ${(h / s).toFixed(2)} |`);
 }
