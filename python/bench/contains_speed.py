@@ -6,7 +6,8 @@ sphere's (points within 1e-3 of the surface left out of that count: the mesh is 
 
     python bench/contains_speed.py [--points 100000] [--subdivisions 7] [--rounds 7] [--threads 0]
 
-``--threads 0``: every core (both libraries' default).
+``--threads 0``: every core (both libraries' default); ``--threads N``: the build and the
+queries of both on N threads.
 """
 
 import argparse
@@ -37,14 +38,15 @@ def main():
           f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}")
     testers = []
     scene = kdray.Scene(v, f, threads=a.threads or None)
-    testers.append(("kdray contains", lambda: scene.contains(pts)))
+    testers.append(("kdray contains", lambda: scene.contains(pts, threads=a.threads or None)))
     try:
         import open3d as o3d
 
         o3 = o3d.t.geometry.RaycastingScene(nthreads=a.threads)
         o3.add_triangles(o3d.core.Tensor(v), o3d.core.Tensor(f.astype(np.uint32)))
         q = o3d.core.Tensor(pts)
-        testers.append(("Open3D compute_occupancy", lambda: o3.compute_occupancy(q).numpy() > 0.5))
+        testers.append(("Open3D compute_occupancy",
+                        lambda: o3.compute_occupancy(q, nthreads=a.threads).numpy() > 0.5))
         print(f"   Open3D {o3d.__version__}")
     except ImportError:
         print("   (open3d is not installed: kdray only)")
