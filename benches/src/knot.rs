@@ -76,43 +76,68 @@ mod tests {
             let d = (t[0] - centre).length();
             assert!((d - 0.3).abs() < 1e-5, "{d}");
         }
-        // The tube closes: the last ring repeats the first (u = 4π is u = 0 on the curve).
-        let first = g.triangles[0][0];
         // Triangles 0, 12,345 and the last as three.js 0.187 makes them (read from its
-        // `position` and `index` attributes in Node), to f32 rounding of the f64 math.
-        let three: [(usize, [f64; 3]); 3] = [
+        // `position` and `index` attributes in Node): all three vertices, in its order, to f32
+        // rounding of the f64 math.
+        let three: [(usize, [[f64; 3]; 3]); 3] = [
             (
                 0,
                 [
-                    1.2000092267990112,
-                    -0.002099963603541255,
-                    -0.0010499992640689015,
+                    [
+                        1.2000092267990112,
+                        -0.002099963603541255,
+                        -0.0010499992640689015,
+                    ],
+                    [
+                        1.1995302438735962,
+                        0.02439998835325241,
+                        0.012200361117720604,
+                    ],
+                    [
+                        1.2006011009216309,
+                        0.0063285245560109615,
+                        -0.017896335572004318,
+                    ],
                 ],
             ),
             (
                 12_345,
-                [-0.0776594877243042, 0.5749834179878235, 0.6397854089736938],
+                [
+                    [-0.0776594877243042, 0.5749834179878235, 0.6397854089736938],
+                    [-0.06572430580854416, 0.5604362487792969, 0.638727068901062],
+                    [-0.03764911741018295, 0.5719476938247681, 0.6535686254501343],
+                ],
             ),
             (
                 102_399,
                 [
-                    1.2006011009216309,
-                    -0.010520163923501968,
-                    0.015800481662154198,
+                    [
+                        1.2006011009216309,
+                        -0.010520163923501968,
+                        0.015800481662154198,
+                    ],
+                    [
+                        1.2000092267990112,
+                        -0.002099963603541255,
+                        -0.0010499992640689015,
+                    ],
+                    [
+                        1.1993498802185059,
+                        -0.028596600517630577,
+                        -0.014299695380032063,
+                    ],
                 ],
             ),
         ];
-        for (k, v) in three {
-            let d = (g.triangles[k][0].as_dvec3() - DVec3::from(v))
-                .abs()
-                .max_element();
-            assert!(
-                d < 1e-6,
-                "triangle {k}: {} against {v:?}",
-                g.triangles[k][0]
-            );
+        for (k, want) in three {
+            for (c, v) in want.into_iter().enumerate() {
+                let got = g.triangles[k][c];
+                let d = (got.as_dvec3() - DVec3::from(v)).abs().max_element();
+                assert!(d < 1e-6, "triangle {k} vertex {c}: {got} against {v:?}");
+            }
         }
-        let last = g.triangles[g.triangles.len() - 200][1];
+        // The tube closes: the last ring repeats the first (u = 4π is u = 0 on the curve).
+        let (first, last) = (g.triangles[0][0], g.triangles[g.triangles.len() - 200][1]);
         assert!((first - last).length() < 1e-5, "{first} {last}");
     }
 }

@@ -19,7 +19,8 @@
 //! hits, and `--random` rays (default 200,000) with origins uniform in the mesh's box and
 //! directions uniform on the sphere — the rays of a picking or analysis user. Times are the
 //! median of `--repeat` runs (default 3), the settings taking turns in each round, each round
-//! starting at another setting; with `FRONT_PHASES` set, each build's tree, serialization and opening times go to standard error.
+//! starting at another setting; with `FRONT_PHASES` set, each build's tree, serialization and
+//! opening times go to standard error.
 //! Every setting's hits are compared with the first's (same `t` bits; a triangle may differ only
 //! in a tie): a tree that answers differently is reported, and the run exits 1.
 //!
