@@ -12,12 +12,13 @@
 //! next, for a walk that kept 4 to 16 rays in flight; the wide walk made it pointless:
 //! docs/BENCHMARKS.md, "Retired: blocks and interleaved walks".)
 
+use super::lanes::{self, LaneQuery};
 use super::{Contents, entry_interval, entry_with_slack, widen};
 use crate::format::{LeafPrims, MAX_DEPTH, Scene};
-use crate::group::WIDTH;
 use crate::ray::{Hit, Ray};
-use crate::simd::group::{GroupLanes, Pair, closest_in_group, intersect_group_watertight};
+use crate::simd::group::{GroupLanes, closest_in_group};
 use crate::simd::kernels::PrimHits;
+use crate::simd::lanes::Lanes;
 use crate::watertight::{self, Shear};
 use glam::Vec3;
 
@@ -60,49 +61,32 @@ impl Closest {
 impl Query for Closest {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
-        if C::GROUPS {
-            if let LeafPrims::Groups(groups) = prims {
-                // Two groups at a time in the eight lanes, the last one alone.
-                let mut pairs = groups.chunks_exact(2);
-                for p in &mut pairs {
-                    self.group::<C, _>(Pair(&p[0], &p[1]));
-                }
-                if let [g] = pairs.remainder() {
-                    self.group::<C, _>(g);
-                }
-                return (self.query.tmax, false);
-            }
-            if let LeafPrims::Many(ids) = prims {
-                // A listed leaf's triangles gathered from the triangles section, eight at a
-                // time in two groups, the last four or fewer in one.
-                for ids in ids.chunks(2 * WIDTH) {
-                    if ids.len() > WIDTH {
-                        self.group::<C, _>(scene.gather8(ids));
-                    } else {
-                        self.group::<C, _>(scene.gather4(ids));
-                    }
-                }
-                return (self.query.tmax, false);
-            }
+        if lanes::leaf::<C, _>(scene, prims, self).is_none() {
+            self.one_by_one::<C>(scene, prims);
         }
-        self.one_by_one::<C>(scene, prims)
+        (self.query.tmax, false)
+    }
+}
+
+impl LaneQuery for Closest {
+    #[inline(always)]
+    fn ray(&self) -> (Ray, Shear) {
+        (self.query, self.shear)
+    }
+    #[inline(always)]
+    fn take<G: GroupLanes>(&mut self, g: G, found: &PrimHits<G::L>) -> bool {
+        if let Some((t, u, v, prim)) = closest_in_group(g, found) {
+            self.query.tmax = t;
+            self.best = Hit { t, prim, u, v };
+        }
+        false
     }
 }
 
 impl Closest {
-    /// The triangles of `g`: a group, or a pair of groups.
-    #[inline(always)]
-    fn group<C: Contents, G: GroupLanes>(&mut self, g: G) {
-        let found = intersect_group::<C, _>(g, &self.query, &self.shear);
-        if let Some((t, u, v, prim)) = closest_in_group(g, &found) {
-            self.query.tmax = t;
-            self.best = Hit { t, prim, u, v };
-        }
-    }
-
     /// A leaf's primitives one at a time.
     #[inline(always)]
-    fn one_by_one<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
+    fn one_by_one<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) {
         for &prim in prims.listed() {
             if let Some((t, u, v)) =
                 scene.intersect_prim_sheared::<C>(prim, &self.query, &self.shear)
@@ -111,7 +95,6 @@ impl Closest {
                 self.best = Hit { t, prim, u, v };
             }
         }
-        (self.query.tmax, false)
     }
 }
 
@@ -144,41 +127,27 @@ impl Occlusion {
 impl Query for Occlusion {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
-        let (ray, shear) = (&self.ray, &self.shear);
-        if C::GROUPS {
-            if let LeafPrims::Groups(groups) = prims {
-                let mut pairs = groups.chunks_exact(2);
-                self.found = pairs.any(|p| {
-                    intersect_group::<C, _>(Pair(&p[0], &p[1]), ray, shear)
-                        .mask
-                        .any()
-                }) || pairs
-                    .remainder()
-                    .iter()
-                    .any(|g| intersect_group::<C, _>(g, ray, shear).mask.any());
-                return (self.ray.tmax, self.found);
-            }
-            if let LeafPrims::Many(ids) = prims {
-                self.found = ids.chunks(2 * WIDTH).any(|ids| {
-                    if ids.len() > WIDTH {
-                        intersect_group::<C, _>(scene.gather8(ids), ray, shear)
-                            .mask
-                            .any()
-                    } else {
-                        intersect_group::<C, _>(scene.gather4(ids), ray, shear)
-                            .mask
-                            .any()
-                    }
-                });
-                return (self.ray.tmax, self.found);
-            }
+        if lanes::leaf::<C, _>(scene, prims, self).is_none() {
+            let (ray, shear) = (&self.ray, &self.shear);
+            self.found = prims.listed().iter().any(|&prim| {
+                scene
+                    .intersect_prim_sheared::<C>(prim, ray, shear)
+                    .is_some()
+            });
         }
-        self.found = prims.listed().iter().any(|&prim| {
-            scene
-                .intersect_prim_sheared::<C>(prim, ray, shear)
-                .is_some()
-        });
         (self.ray.tmax, self.found)
+    }
+}
+
+impl LaneQuery for Occlusion {
+    #[inline(always)]
+    fn ray(&self) -> (Ray, Shear) {
+        (self.ray, self.shear)
+    }
+    #[inline(always)]
+    fn take<G: GroupLanes>(&mut self, _: G, found: &PrimHits<G::L>) -> bool {
+        self.found = found.mask.any();
+        self.found
     }
 }
 
@@ -370,17 +339,6 @@ impl Scene<'_> {
             return watertight::intersect_sheared(&self.vertices(prim), min_det2, ray, shear);
         }
         tri.intersect_prepared(ray, min_det2)
-    }
-}
-
-/// One ray against a group of four triangles, or a [`Pair`] of groups, in `C`'s mode
-/// ([`crate::simd::group`]).
-#[inline(always)]
-fn intersect_group<C: Contents, G: GroupLanes>(g: G, ray: &Ray, shear: &Shear) -> PrimHits<G::L> {
-    if C::WATERTIGHT {
-        intersect_group_watertight(g, ray, shear)
-    } else {
-        crate::simd::group::intersect_group(g, ray)
     }
 }
 
