@@ -55,7 +55,6 @@
 //! (the argument of pbrt-v3's `ray.tMax < tMin` test, which stops the whole walk instead).
 
 pub mod frustum;
-pub mod lanes;
 pub mod packet;
 pub mod single;
 pub mod steps;

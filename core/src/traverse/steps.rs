@@ -12,11 +12,13 @@
 //! next, for a walk that kept 4 to 16 rays in flight; the wide walk made it pointless:
 //! docs/BENCHMARKS.md, "Retired: blocks and interleaved walks".)
 
-use super::lanes::{self, LaneQuery};
 use super::{Contents, entry_interval, entry_with_slack, widen};
 use crate::format::{LeafPrims, MAX_DEPTH, Scene};
+use crate::group::{self, Group, PAD_ID, WIDTH};
 use crate::ray::{Hit, Ray};
-use crate::simd::group::{GroupLanes, closest_in_group};
+use crate::simd::group::{
+    Gathered, GroupLanes, Pair, closest_in_group, intersect_group, intersect_group_watertight,
+};
 use crate::simd::kernels::PrimHits;
 use crate::simd::lanes::Lanes;
 use crate::watertight::{self, Shear};
@@ -61,32 +63,69 @@ impl Closest {
 impl Query for Closest {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
-        if lanes::leaf::<C, _>(scene, prims, self).is_none() {
-            self.one_by_one::<C>(scene, prims);
+        if C::GROUPS {
+            if let LeafPrims::Groups(groups) = prims {
+                if C::WATERTIGHT {
+                    // The watertight kernel takes the vertices, which a group does not hold:
+                    // its triangles gathered from the triangles section, two groups a test.
+                    for p in groups.chunks(2) {
+                        let (ids, n) = ids_of(p);
+                        self.gathered::<C>(scene, &ids[..n]);
+                    }
+                    return (self.query.tmax, false);
+                }
+                // Two groups at a time in the eight lanes, the last one alone.
+                let mut pairs = groups.chunks_exact(2);
+                for p in &mut pairs {
+                    self.group(Pair(&p[0], &p[1]), intersect_group);
+                }
+                if let [g] = pairs.remainder() {
+                    self.group(g, intersect_group);
+                }
+                return (self.query.tmax, false);
+            }
+            if let LeafPrims::Many(ids) = prims {
+                // A listed leaf's triangles gathered from the triangles section, eight at a
+                // time in two groups, the last four or fewer in one.
+                for ids in ids.chunks(2 * WIDTH) {
+                    self.gathered::<C>(scene, ids);
+                }
+                return (self.query.tmax, false);
+            }
         }
-        (self.query.tmax, false)
-    }
-}
-
-impl LaneQuery for Closest {
-    #[inline(always)]
-    fn ray(&self) -> (Ray, Shear) {
-        (self.query, self.shear)
-    }
-    #[inline(always)]
-    fn take<G: GroupLanes>(&mut self, g: G, found: &PrimHits<G::L>) -> bool {
-        if let Some((t, u, v, prim)) = closest_in_group(g, found) {
-            self.query.tmax = t;
-            self.best = Hit { t, prim, u, v };
-        }
-        false
+        self.one_by_one::<C>(scene, prims)
     }
 }
 
 impl Closest {
+    /// The triangles of `g` (a group, a pair of groups, gathered triangles) by `test`.
+    #[inline(always)]
+    fn group<G: GroupLanes>(&mut self, g: G, test: impl Fn(G, &Ray) -> PrimHits<G::L>) {
+        let found = test(g, &self.query);
+        if let Some((t, u, v, prim)) = closest_in_group(g, &found) {
+            self.query.tmax = t;
+            self.best = Hit { t, prim, u, v };
+        }
+    }
+
+    /// Triangles `ids` (one to eight) gathered from the triangles section, in `C`'s mode.
+    #[inline(always)]
+    fn gathered<C: Contents>(&mut self, scene: &Scene, ids: &[u32]) {
+        let shear = self.shear;
+        if ids.len() > WIDTH {
+            self.group(scene.gather8(ids), |g, ray| {
+                gathered_hits::<C, _>(g, ray, &shear)
+            });
+        } else {
+            self.group(scene.gather4(ids), |g, ray| {
+                gathered_hits::<C, _>(g, ray, &shear)
+            });
+        }
+    }
+
     /// A leaf's primitives one at a time.
     #[inline(always)]
-    fn one_by_one<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) {
+    fn one_by_one<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
         for &prim in prims.listed() {
             if let Some((t, u, v)) =
                 scene.intersect_prim_sheared::<C>(prim, &self.query, &self.shear)
@@ -95,6 +134,7 @@ impl Closest {
                 self.best = Hit { t, prim, u, v };
             }
         }
+        (self.query.tmax, false)
     }
 }
 
@@ -127,27 +167,46 @@ impl Occlusion {
 impl Query for Occlusion {
     #[inline(always)]
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
-        if lanes::leaf::<C, _>(scene, prims, self).is_none() {
-            let (ray, shear) = (&self.ray, &self.shear);
-            self.found = prims.listed().iter().any(|&prim| {
-                scene
-                    .intersect_prim_sheared::<C>(prim, ray, shear)
-                    .is_some()
-            });
+        let (ray, shear) = (&self.ray, &self.shear);
+        if C::GROUPS {
+            let gathered_any = |ids: &[u32]| {
+                if ids.len() > WIDTH {
+                    gathered_hits::<C, _>(scene.gather8(ids), ray, shear)
+                        .mask
+                        .any()
+                } else {
+                    gathered_hits::<C, _>(scene.gather4(ids), ray, shear)
+                        .mask
+                        .any()
+                }
+            };
+            if let LeafPrims::Groups(groups) = prims {
+                self.found = if C::WATERTIGHT {
+                    groups.chunks(2).any(|p| {
+                        let (ids, n) = ids_of(p);
+                        gathered_any(&ids[..n])
+                    })
+                } else {
+                    let mut pairs = groups.chunks_exact(2);
+                    pairs.any(|p| intersect_group(Pair(&p[0], &p[1]), ray).mask.any())
+                        || pairs
+                            .remainder()
+                            .iter()
+                            .any(|g| intersect_group(g, ray).mask.any())
+                };
+                return (self.ray.tmax, self.found);
+            }
+            if let LeafPrims::Many(ids) = prims {
+                self.found = ids.chunks(2 * WIDTH).any(gathered_any);
+                return (self.ray.tmax, self.found);
+            }
         }
+        self.found = prims.listed().iter().any(|&prim| {
+            scene
+                .intersect_prim_sheared::<C>(prim, ray, shear)
+                .is_some()
+        });
         (self.ray.tmax, self.found)
-    }
-}
-
-impl LaneQuery for Occlusion {
-    #[inline(always)]
-    fn ray(&self) -> (Ray, Shear) {
-        (self.ray, self.shear)
-    }
-    #[inline(always)]
-    fn take<G: GroupLanes>(&mut self, _: G, found: &PrimHits<G::L>) -> bool {
-        self.found = found.mask.any();
-        self.found
     }
 }
 
@@ -340,6 +399,38 @@ impl Scene<'_> {
         }
         tri.intersect_prepared(ray, min_det2)
     }
+}
+
+/// One ray against triangles gathered from the triangles section, in `C`'s mode
+/// ([`crate::simd::group`]).
+#[inline(always)]
+fn gathered_hits<C: Contents, L: Lanes>(
+    g: Gathered<'_, L>,
+    ray: &Ray,
+    shear: &Shear,
+) -> PrimHits<L> {
+    if C::WATERTIGHT {
+        intersect_group_watertight(g, ray, shear)
+    } else {
+        intersect_group(g, ray)
+    }
+}
+
+/// The triangle ids of one or two of a grouped leaf's groups, in lane order, and how many there
+/// are (padding lanes, [`PAD_ID`], come only at the end of a leaf's last group).
+#[inline(always)]
+fn ids_of(groups: &[Group]) -> ([u32; 2 * WIDTH], usize) {
+    let mut ids = [PAD_ID; 2 * WIDTH];
+    let mut n = 0;
+    for g in groups {
+        for id in group::ids(g) {
+            if id != PAD_ID {
+                ids[n] = id;
+                n += 1;
+            }
+        }
+    }
+    (ids, n)
 }
 
 /// The ray's [`Shear`] when `C` is watertight; otherwise a constant that nothing reads.
