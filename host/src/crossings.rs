@@ -24,6 +24,7 @@
 
 use glam::Vec3;
 use kdray_core::format::LeafPrims;
+use kdray_core::group;
 use kdray_core::traverse::steps::{Query, Stepper};
 use kdray_core::traverse::{Contents, Triangles, Watertight};
 use kdray_core::watertight::Shear;
@@ -144,10 +145,20 @@ impl Every<'_> {
 
 impl Query for Every<'_> {
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
-        // Every primitive, one at a time, with the triangles section's vertices (the watertight
-        // test's; a group holds edges).
-        for prim in prims.ids() {
-            self.test(scene, prim, &scene.vertices(prim));
+        // Every primitive, one at a time. A grouped leaf holds its triangles' vertices inline,
+        // the triangles section's bits: read there, not looked up by id in another section.
+        if let LeafPrims::Groups(groups) = prims {
+            for g in groups {
+                for (j, prim) in group::ids(g).into_iter().enumerate() {
+                    if prim != group::PAD_ID {
+                        self.test(scene, prim, &group::lane_vertices(g, j));
+                    }
+                }
+            }
+        } else {
+            for prim in prims.ids() {
+                self.test(scene, prim, &scene.vertices(prim));
+            }
         }
         // Never a closest hit: no pending cell is skipped.
         (f32::INFINITY, false)

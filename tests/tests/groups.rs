@@ -13,7 +13,7 @@ use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::format::{FormatError, contents, header, seal};
 use kdray_core::group::{self, GROUP_WORDS, PAD_ID, slot};
 use kdray_core::simd::group::{
-    Gathered, GroupLanes, Pair, closest_in_group, intersect_group, intersect_group_watertight,
+    GroupLanes, Pair, closest_in_group, intersect_group, intersect_group_watertight,
 };
 use kdray_core::simd::{HitPacket, Lanes, RayPacket, f32x8};
 use kdray_core::traverse::Mode;
@@ -62,24 +62,6 @@ fn lane_triangle() -> impl Strategy<Value = [Vec3; 3]> {
     })
 }
 
-/// The lanes as the watertight kernel takes them, gathered as `Scene::gather4` and `gather8`
-/// gather a leaf's triangles: word `m` of each lane's stored row (the vertices' coordinates, then
-/// the threshold), padding past the lanes (vertices 0, threshold `+inf`).
-fn gathered<'a, L: Lanes>(lanes: &[group::Lane], ids: &'a [u32]) -> Gathered<'a, L> {
-    let word = |m: usize| {
-        L::from_fn(|j| match lanes.get(j) {
-            Some((_, v, min_det2)) if m < 9 => v[m / 3].to_array()[m % 3],
-            Some((_, _, min_det2)) => *min_det2,
-            None if m < 9 => 0.0,
-            None => f32::INFINITY,
-        })
-    };
-    Gathered {
-        words: core::array::from_fn(word),
-        ids,
-    }
-}
-
 fn lanes_of(tris: &[[Vec3; 3]]) -> Vec<group::Lane> {
     tris.iter()
         .enumerate()
@@ -103,11 +85,9 @@ proptest! {
     ) {
         let lanes = lanes_of(&tris);
         let g = group::pack(&lanes);
-        let ids: Vec<u32> = lanes.iter().map(|l| l.0).collect();
         let shear = Shear::new(ray.dir);
         let fast = intersect_group(&g, &ray);
-        let gathered = gathered::<kdray_core::simd::f32x4>(&lanes, &ids);
-        let tight = intersect_group_watertight(gathered, &ray, &shear);
+        let tight = intersect_group_watertight(&g, &ray, &shear);
         let (mut want_fast, mut want_tight) = (None, None);
         let mut seq = [ray; 2];
         for j in 0..group::WIDTH {
@@ -138,7 +118,7 @@ proptest! {
         }
         let key = |h: Option<(f32, f32, f32, u32)>| h.map(|(t, u, v, id)| (t.to_bits(), u.to_bits(), v.to_bits(), id));
         prop_assert_eq!(key(closest_in_group(&g, &fast)), key(want_fast));
-        prop_assert_eq!(key(closest_in_group(gathered, &tight)), key(want_tight));
+        prop_assert_eq!(key(closest_in_group(&g, &tight)), key(want_tight));
     }
 }
 
@@ -176,12 +156,10 @@ proptest! {
         }
         let pair = Pair(&g0, &g1);
         let fast = intersect_group(pair, &ray);
-        let ids: Vec<u32> = lanes.iter().map(|l| l.0).collect();
-        let gathered = gathered::<f32x8>(&lanes, &ids);
-        let tight = intersect_group_watertight(gathered, &ray, &shear);
+        let tight = intersect_group_watertight(pair, &ray, &shear);
         let key = |h: Option<(f32, f32, f32, u32)>| h.map(|(t, u, v, id)| (t.to_bits(), u.to_bits(), v.to_bits(), id));
         prop_assert_eq!(key(closest_in_group(pair, &fast)), key(want_fast));
-        prop_assert_eq!(key(closest_in_group(gathered, &tight)), key(want_tight));
+        prop_assert_eq!(key(closest_in_group(pair, &tight)), key(want_tight));
         // The any-hit query's answer: some triangle hits the ray as given.
         let hits = |f: &dyn Fn(&[Vec3; 3], f32) -> bool| lanes.iter().any(|(_, v, m)| f(v, *m));
         let tri = |v: &[Vec3; 3]| Triangle::from_vertices(v[0], v[1], v[2]);
@@ -266,9 +244,8 @@ fn validation_rebuilds_every_group() {
     let (w, _) = grouped_words();
     Scene::from_words(&w).expect("the serializer's groups validate");
     let bad_group = |r: Result<(), FormatError>| matches!(r, Err(FormatError::BadGroup { .. }));
-    // A vertex bit, an edge bit, a threshold, an id, a padding lane's id, vertex or threshold.
-    assert!(bad_group(corrupt(|w, b, _| w[b + slot::V0 + 5] ^= 1)));
-    assert!(bad_group(corrupt(|w, b, _| w[b + slot::EDGES + 14] ^= 1)));
+    // A vertex bit, a threshold, an id, a padding lane's id, vertex or threshold.
+    assert!(bad_group(corrupt(|w, b, _| w[b + slot::VERTICES + 5] ^= 1)));
     assert!(bad_group(corrupt(
         |w, b, _| w[b + slot::MIN_DET2] = f32::INFINITY.to_bits()
     )));
@@ -330,24 +307,20 @@ fn groups_need_a_scene_of_triangles_only() {
 }
 
 #[test]
-fn a_group_holds_its_lanes_as_moller_trumbore_takes_them() {
+fn a_group_holds_its_lanes_as_the_triangles_section_does() {
     let v = [
         Vec3::new(1.0, 2.0, 3.0),
-        Vec3::new(4.0, 5.5, 6.0),
-        Vec3::new(7.0, 8.0, 10.25),
+        Vec3::new(4.0, 5.0, 6.0),
+        Vec3::new(7.0, 8.0, 10.0),
     ];
     let g = group::pack(&[(5, v, 0.25)]);
-    assert_eq!(g[slot::V0], 1.0f32.to_bits()); // v0.x lane 0
-    assert_eq!(g[slot::V0 + 4], 2.0f32.to_bits()); // v0.y lane 0
-    assert_eq!(g[slot::EDGES + 4], 3.5f32.to_bits()); // e1.y lane 0: 5.5 − 2
-    assert_eq!(g[slot::EDGES + 8], 3.0f32.to_bits()); // e1.z lane 0: 6 − 3
-    assert_eq!(g[slot::EDGES + 12], 6.0f32.to_bits()); // e2.x lane 0: 7 − 1
-    assert_eq!(g[slot::EDGES + 12 + 8], 7.25f32.to_bits()); // e2.z lane 0: 10.25 − 3
-    assert_eq!(g[slot::MIN_DET2], 0.25f32.to_bits());
+    assert_eq!(g[slot::VERTICES], 1.0f32.to_bits()); // v0.x lane 0
+    assert_eq!(g[slot::VERTICES + 4], 2.0f32.to_bits()); // v0.y lane 0
+    assert_eq!(g[slot::VERTICES + 12 + 8], 6.0f32.to_bits()); // v1.z lane 0
+    assert_eq!(g[slot::VERTICES + 24 + 8], 10.0f32.to_bits()); // v2.z lane 0
     assert_eq!(group::ids(&g), [5, PAD_ID, PAD_ID, PAD_ID]);
     assert_eq!(g[slot::MIN_DET2 + 1], f32::INFINITY.to_bits());
-    assert_eq!(g[slot::V0 + 1], 0);
-    assert_eq!(g[slot::EDGES + 1], 0);
+    assert_eq!(g[slot::VERTICES + 1], 0);
     assert_eq!(group::groups_for(1), 0);
     assert_eq!(group::groups_for(2), 1);
     assert_eq!(group::groups_for(5), 2);
@@ -356,7 +329,7 @@ fn a_group_holds_its_lanes_as_moller_trumbore_takes_them() {
 /// A listed leaf's triangles are tested in lanes gathered from the triangles section
 /// (`Scene::gather4`, `Scene::gather8`): they must be the lanes of the group `pack` makes of the
 /// same triangles (four or fewer), or of the pair of groups (five to eight), padding included,
-/// bit for bit: every `v0`, edge, threshold, id and lane's triangle.
+/// bit for bit: every vertex, threshold, id and lane's vertices.
 #[test]
 fn gathered_lanes_are_the_packed_groups_of_their_triangles() {
     let geom = scattered_triangles(40);
@@ -391,20 +364,17 @@ fn same_lanes<G: GroupLanes, H: GroupLanes<L = G::L>>(g: G, h: H, ids: &[u32]) {
             .map(|f| f.to_bits())
             .collect::<Vec<_>>()
     };
-    let (a, b) = (g.triangles(), h.triangles());
-    for (k, (a, b)) in [(a.v0, b.v0), (a.e1, b.e1), (a.e2, b.e2)]
-        .into_iter()
-        .enumerate()
-    {
+    for k in 0..3 {
+        let (a, b) = (g.vertex(k), h.vertex(k));
         for (x, y) in [(a.x, b.x), (a.y, b.y), (a.z, b.z)] {
-            assert_eq!(bits(x), bits(y), "ids {ids:?}, vector {k} (v0, e1, e2)");
+            assert_eq!(bits(x), bits(y), "ids {ids:?}, vertex {k}");
         }
     }
-    assert_eq!(bits(a.min_det2), bits(b.min_det2), "ids {ids:?}");
+    assert_eq!(bits(g.thresholds()), bits(h.thresholds()), "ids {ids:?}");
     for j in 0..G::L::WIDTH {
         assert_eq!(g.id(j), h.id(j), "ids {ids:?}, lane {j}");
-        let (a, b) = (g.lane_triangle(j), h.lane_triangle(j));
-        let words = |t: Triangle| [t.v0, t.e1, t.e2].map(|p| p.to_array().map(f32::to_bits));
+        let (a, b) = (g.lane_vertices(j), h.lane_vertices(j));
+        let words = |v: [Vec3; 3]| v.map(|p| p.to_array().map(f32::to_bits));
         assert_eq!(words(a), words(b), "ids {ids:?}, lane {j}");
     }
 }

@@ -16,7 +16,7 @@ use kdray::build::build;
 use kdray::f64ref::{DVec3, dv};
 use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::group::pack;
-use kdray_core::simd::group::{Gathered, intersect_group, intersect_group_watertight};
+use kdray_core::simd::group::{intersect_group, intersect_group_watertight};
 use kdray_core::simd::{
     Lanes, RayPacket, ShearX, f32x4, f32x8, intersect_triangle_watertight, kernels,
 };
@@ -181,18 +181,7 @@ fn every_kernel(v: &[Vec3; 3], ray: &Ray, mode: Mode) -> Option<(f32, f32, f32)>
     let g = pack(&[(0, *v, tri.min_det2()); 4]);
     let group = match mode {
         Mode::Fast => intersect_group(&g, ray),
-        Mode::Watertight => {
-            // The watertight kernel takes the triangles section's rows, gathered into lanes.
-            let row = [v[0].to_array(), v[1].to_array(), v[2].to_array()].concat();
-            let words = core::array::from_fn(|m| {
-                f32x4::splat(row.get(m).copied().unwrap_or(tri.min_det2()))
-            });
-            let gathered = Gathered {
-                words,
-                ids: &[0; 4],
-            };
-            intersect_group_watertight(gathered, ray, &Shear::new(ray.dir))
-        }
+        Mode::Watertight => intersect_group_watertight(&g, ray, &Shear::new(ray.dir)),
     };
     let at = |x: f32x4| x.to_array()[2];
     let group =

@@ -8,8 +8,7 @@
 //! ```text
 //!  0  MAGIC           0x5952_444B, the bytes "KDRY" read as a little-endian u32 (a top level
 //!                     of instances, "KDRI", is refused with `FormatError::TopLevel`)
-//!  1  VERSION         14 (13 stored a group's vertices, not its edges; 12 could not cut a leaf
-//!                     into parts in the wide section; 11 could
+//!  1  VERSION         13 (12 could not cut a leaf into parts in the wide section; 11 could
 //!                     carry a blocks section, retired since; 10 cut wide nodes
 //!                     three levels down, not greedily; 9 had no wide section; 8 had no groups section; 7 stored `+inf` as the threshold of a
 //!                     triangle whose `|e1 × e2|²` overflows f32, so fast mode never hit it; 6 had
@@ -80,17 +79,15 @@
 //!   interleaved walks"). A file with the bit is refused with [`FormatError::BlocksRetired`].
 //! - **Groups** (CONTENTS bit `GROUPS`, version 9; only in a scene of triangles alone): a leaf's
 //!   triangles stored inline, four to a 44-word group in struct-of-arrays lanes
-//!   ([`crate::group`], where the layout is documented: `v0` and the two edges, since version
-//!   14), so that the single-ray walk tests one ray against four triangles at once with no index
-//!   list in between. A leaf of `n ≥ 2` triangles
+//!   ([`crate::group`], where the layout is documented), so that the single-ray walk tests one ray
+//!   against four triangles at once with no index list in between. A leaf of `n ≥ 2` triangles
 //!   then has as payload the first of its `⌈n/4⌉` groups instead of an index-list offset, and the
 //!   leaves' groups tile the section in node order, as index-list ranges do. A core built without
 //!   its `groups` feature (firmware and WASM builds that link no group code) refuses such a scene
 //!   on load ([`FormatError::GroupsLeftOut`]). Each lane is a
 //!   triangle of the triangles section, bit for bit (validation rebuilds every group from its ids),
-//!   so the walks return the hits of the index-list layout. The watertight kernel needs the
-//!   vertices, which a group does not hold: in watertight mode the walks test a grouped leaf's
-//!   triangles from the triangles section, by the groups' ids.
+//!   so the walks return the hits of the index-list layout; the packet walks read the same ids
+//!   and test the triangles section.
 //! - **Wide nodes** (CONTENTS bit `WIDE`, version 10; the greedy cut since 11): the same tree collapsed into nodes of up
 //!   to eight children, each with a conservative tight box and a front-to-back order per
 //!   direction octant ([`crate::format::wide`], where the encoding is documented). Leaves stay
@@ -156,7 +153,7 @@ pub const MAGIC: u32 = u32::from_le_bytes(*b"KDRY");
 /// that [`Scene::from_words`] can say what such an array is ([`FormatError::TopLevel`]).
 pub const TOP_LEVEL_MAGIC: u32 = u32::from_le_bytes(*b"KDRI");
 /// The format version this core reads and the host writes.
-pub const VERSION: u32 = 14;
+pub const VERSION: u32 = 13;
 /// Words before the first section.
 pub const HEADER_WORDS: usize = 32;
 /// Sections are aligned to this many words (32 bytes).

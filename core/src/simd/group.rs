@@ -16,49 +16,44 @@ use super::kernels::{PrimHits, TriangleLanes, moller_trumbore_lanes};
 use super::lanes::{Lanes, Vec3x, set_lanes};
 use super::watertight::watertight_lanes;
 use super::{f32x4, f32x8};
-use crate::group::{Group, floats, ids, lane_triangle, slot};
+use crate::group::{Group, floats, ids, lane_vertices, slot};
 use crate::ray::Ray;
 use crate::triangle::Triangle;
 use crate::watertight::Shear;
 use glam::Vec3;
 
-/// The triangles one fast-mode test takes: a group in four lanes, a [`Pair`] of groups in eight,
-/// or a listed leaf's triangles [`Gathered`] into either.
+/// The triangles one test takes: a group in four lanes, or a [`Pair`] of groups in eight.
 pub trait GroupLanes: Copy {
     /// The lanes of one test.
     type L: Lanes;
-    /// Every lane's `v0`, edges and threshold, as Möller–Trumbore takes them.
-    fn triangles(self) -> TriangleLanes<Self::L>;
-    /// Lane `j`'s triangle ([`Triangle::from_vertices`] of its vertices, bit for bit).
-    fn lane_triangle(self, j: usize) -> Triangle;
+    /// Vertex `k` (0, 1, 2) of every lane.
+    fn vertex(self, k: usize) -> Vec3x<Self::L>;
+    /// The stored thresholds of every lane.
+    fn thresholds(self) -> Self::L;
+    /// Lane `j`'s vertices.
+    fn lane_vertices(self, j: usize) -> [Vec3; 3];
     /// Lane `j`'s triangle id.
     fn id(self, j: usize) -> u32;
-}
-
-/// The three vectors of lanes from word `at` of a group (`v0` or an edge): x, y, z.
-#[inline(always)]
-fn group_vector(g: &Group, at: usize) -> Vec3x<f32x4> {
-    Vec3x {
-        x: f32x4::from(floats(g, at)),
-        y: f32x4::from(floats(g, at + 4)),
-        z: f32x4::from(floats(g, at + 8)),
-    }
 }
 
 impl GroupLanes for &Group {
     type L = f32x4;
     #[inline(always)]
-    fn triangles(self) -> TriangleLanes<f32x4> {
-        TriangleLanes {
-            v0: group_vector(self, slot::V0),
-            e1: group_vector(self, slot::EDGES),
-            e2: group_vector(self, slot::EDGES + 12),
-            min_det2: f32x4::from(floats(self, slot::MIN_DET2)),
+    fn vertex(self, k: usize) -> Vec3x<f32x4> {
+        let at = slot::VERTICES + 12 * k;
+        Vec3x {
+            x: f32x4::from(floats(self, at)),
+            y: f32x4::from(floats(self, at + 4)),
+            z: f32x4::from(floats(self, at + 8)),
         }
     }
     #[inline(always)]
-    fn lane_triangle(self, j: usize) -> Triangle {
-        lane_triangle(self, j)
+    fn thresholds(self) -> f32x4 {
+        f32x4::from(floats(self, slot::MIN_DET2))
+    }
+    #[inline(always)]
+    fn lane_vertices(self, j: usize) -> [Vec3; 3] {
+        lane_vertices(self, j)
     }
     #[inline(always)]
     fn id(self, j: usize) -> u32 {
@@ -77,35 +72,29 @@ impl Pair<'_> {
         let (a, b) = (floats(self.0, at), floats(self.1, at));
         f32x8::from([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
     }
+}
 
-    /// The three vectors of lanes from word `at` of both groups.
+impl GroupLanes for Pair<'_> {
+    type L = f32x8;
     #[inline(always)]
-    fn vector(self, at: usize) -> Vec3x<f32x8> {
+    fn vertex(self, k: usize) -> Vec3x<f32x8> {
+        let at = slot::VERTICES + 12 * k;
         Vec3x {
             x: self.floats(at),
             y: self.floats(at + 4),
             z: self.floats(at + 8),
         }
     }
-}
-
-impl GroupLanes for Pair<'_> {
-    type L = f32x8;
     #[inline(always)]
-    fn triangles(self) -> TriangleLanes<f32x8> {
-        TriangleLanes {
-            v0: self.vector(slot::V0),
-            e1: self.vector(slot::EDGES),
-            e2: self.vector(slot::EDGES + 12),
-            min_det2: self.floats(slot::MIN_DET2),
-        }
+    fn thresholds(self) -> f32x8 {
+        self.floats(slot::MIN_DET2)
     }
     #[inline(always)]
-    fn lane_triangle(self, j: usize) -> Triangle {
+    fn lane_vertices(self, j: usize) -> [Vec3; 3] {
         if j < 4 {
-            lane_triangle(self.0, j)
+            lane_vertices(self.0, j)
         } else {
-            lane_triangle(self.1, j - 4)
+            lane_vertices(self.1, j - 4)
         }
     }
     #[inline(always)]
@@ -132,8 +121,8 @@ pub struct Gathered<'a, L> {
     pub ids: &'a [u32],
 }
 
-impl<L: Lanes> Gathered<'_, L> {
-    /// Vertex `k` (0, 1, 2) of every lane.
+impl<L: Lanes> GroupLanes for Gathered<'_, L> {
+    type L = L;
     #[inline(always)]
     fn vertex(self, k: usize) -> Vec3x<L> {
         Vec3x {
@@ -142,14 +131,10 @@ impl<L: Lanes> Gathered<'_, L> {
             z: self.words[3 * k + 2],
         }
     }
-
-    /// The stored thresholds of every lane.
     #[inline(always)]
     fn thresholds(self) -> L {
         self.words[9]
     }
-
-    /// Lane `j`'s vertices.
     #[inline(always)]
     fn lane_vertices(self, j: usize) -> [Vec3; 3] {
         let w = |m: usize| self.words[m].to_array().as_ref()[j];
@@ -159,38 +144,25 @@ impl<L: Lanes> Gathered<'_, L> {
             Vec3::new(w(6), w(7), w(8)),
         ]
     }
-}
-
-impl<L: Lanes> GroupLanes for Gathered<'_, L> {
-    type L = L;
-    /// The edges are the subtractions [`Triangle::from_vertices`] makes.
-    #[inline(always)]
-    fn triangles(self) -> TriangleLanes<L> {
-        let v0 = self.vertex(0);
-        TriangleLanes {
-            v0,
-            e1: self.vertex(1) - v0,
-            e2: self.vertex(2) - v0,
-            min_det2: self.thresholds(),
-        }
-    }
-    #[inline(always)]
-    fn lane_triangle(self, j: usize) -> Triangle {
-        let [v0, v1, v2] = self.lane_vertices(j);
-        Triangle::from_vertices(v0, v1, v2)
-    }
     #[inline(always)]
     fn id(self, j: usize) -> u32 {
         self.ids.get(j).copied().unwrap_or(crate::group::PAD_ID)
     }
 }
 
-/// Möller–Trumbore of `ray` against the lanes' triangles: lane `j` as
+/// Möller–Trumbore of `ray` against the four triangles: lane `j` as
 /// [`crate::Triangle::intersect_prepared`] of triangle `j` with its stored threshold (padding
-/// lanes, `+inf`, never hit).
+/// lanes, `+inf`, never hit). The edges are the subtractions [`crate::Triangle::from_vertices`]
+/// makes.
 #[inline(always)]
 pub fn intersect_group<G: GroupLanes>(g: G, ray: &Ray) -> PrimHits<G::L> {
-    let tri = g.triangles();
+    let v0 = g.vertex(0);
+    let tri = TriangleLanes {
+        v0,
+        e1: g.vertex(1) - v0,
+        e2: g.vertex(2) - v0,
+        min_det2: g.thresholds(),
+    };
     let splat = |x: f32| G::L::splat(x);
     moller_trumbore_lanes::<G::L, true>(
         &tri,
@@ -199,29 +171,24 @@ pub fn intersect_group<G: GroupLanes>(g: G, ray: &Ray) -> PrimHits<G::L> {
         splat(ray.tmin),
         splat(ray.tmax),
         |j| {
-            let Triangle { v0, e1, e2 } = g.lane_triangle(j);
+            let [v0, v1, v2] = g.lane_vertices(j);
+            let Triangle { v0, e1, e2 } = Triangle::from_vertices(v0, v1, v2);
             crate::far::intersect_moller_trumbore(&v0, &e1, &e2, ray)
         },
     )
 }
 
-/// The watertight test of `ray` (its [`Shear`]) against the gathered triangles: lane `j` as
+/// The watertight test of `ray` (its [`Shear`]) against the four triangles: lane `j` as
 /// [`crate::watertight::intersect_sheared`] of triangle `j` with its stored threshold (`+inf`,
-/// a degenerate triangle or padding, is never hit). It takes the triangles section's vertices
-/// ([`Gathered`]), not a group's edges: two triangles sharing an edge must see its vertices
-/// bit for bit.
+/// a degenerate triangle or padding, is never hit).
 #[inline(always)]
-pub fn intersect_group_watertight<L: Lanes>(
-    g: Gathered<'_, L>,
-    ray: &Ray,
-    shear: &Shear,
-) -> PrimHits<L> {
+pub fn intersect_group_watertight<G: GroupLanes>(g: G, ray: &Ray, shear: &Shear) -> PrimHits<G::L> {
     let o = ray.origin.to_array();
     let [kx, ky, kz] = shear.k;
-    let origin = [L::splat(o[kx]), L::splat(o[ky]), L::splat(o[kz])];
+    let origin = [G::L::splat(o[kx]), G::L::splat(o[ky]), G::L::splat(o[kz])];
     // `(v − o)[k]` of the scalar kernel: the same subtraction, component k only. (Written out:
     // array `map`s here were left as out-of-line calls.)
-    let relative = |v: Vec3x<L>| {
+    let relative = |v: Vec3x<G::L>| {
         let comp = [v.x, v.y, v.z];
         [
             comp[kx] - origin[0],
@@ -234,16 +201,16 @@ pub fn intersect_group_watertight<L: Lanes>(
         relative(g.vertex(1)),
         relative(g.vertex(2)),
     ];
-    let valid = g.thresholds().lt(L::splat(f32::INFINITY));
+    let valid = g.thresholds().lt(G::L::splat(f32::INFINITY));
     watertight_lanes(
         rel,
         [
-            L::splat(shear.s[0]),
-            L::splat(shear.s[1]),
-            L::splat(shear.s[2]),
+            G::L::splat(shear.s[0]),
+            G::L::splat(shear.s[1]),
+            G::L::splat(shear.s[2]),
         ],
-        L::splat(ray.tmin),
-        L::splat(ray.tmax),
+        G::L::splat(ray.tmin),
+        G::L::splat(ray.tmax),
         valid,
         |j| crate::distance::hit_t(&g.lane_vertices(j), ray.origin, ray.dir, ray.tmin, ray.tmax),
         |j| {

@@ -137,7 +137,7 @@ fn splat_triangle<L: Lanes, const CHECKED: bool>(
 /// Triangles in Möller–Trumbore's layout, one per lane (or one in every lane), with their
 /// thresholds [`Triangle::min_det2`].
 #[derive(Clone, Copy, Debug)]
-pub struct TriangleLanes<L> {
+pub(crate) struct TriangleLanes<L> {
     pub v0: Vec3x<L>,
     pub e1: Vec3x<L>,
     pub e2: Vec3x<L>,

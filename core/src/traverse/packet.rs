@@ -142,9 +142,8 @@ impl Scene<'_> {
     }
 
     /// Tests a leaf's primitives against the packet in the leaf's order: closest hits recorded
-    /// (or, with `ANY`, lanes that hit added to `done` and retired). In fast mode a grouped
-    /// leaf's triangles are read from its groups' lanes (`v0` and edges, bit for bit the
-    /// triangles section's).
+    /// (or, with `ANY`, lanes that hit added to `done` and retired). A grouped leaf's triangles
+    /// are read from its groups' lanes, the same bits as the triangles section.
     #[inline(always)]
     fn leaf_packet<C: Contents, L: Lanes, const ANY: bool>(
         &self,
@@ -172,14 +171,11 @@ impl Scene<'_> {
                         if prim == group::PAD_ID {
                             break;
                         }
-                        let found = if C::WATERTIGHT {
-                            // The watertight kernel takes the vertices, which a group does not
-                            // store: the triangles section's.
-                            self.intersect_prim_packet::<C, L>(prim, rays, shear)
-                        } else {
-                            let tri = group::lane_triangle(g, j);
-                            intersect_triangle_in_range(&tri, group::lane_threshold(g, j), rays)
-                        };
+                        let verts = group::lane_vertices(g, j);
+                        let tri = crate::Triangle::from_vertices(verts[0], verts[1], verts[2]);
+                        let min_det2 = group::lane_threshold(g, j);
+                        let found =
+                            intersect_stored_packet::<C, L>(&verts, &tri, min_det2, rays, shear);
                         if record(found, prim, rays) {
                             return;
                         }

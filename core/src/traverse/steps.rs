@@ -14,13 +14,10 @@
 
 use super::{Contents, entry_interval, entry_with_slack, widen};
 use crate::format::{LeafPrims, MAX_DEPTH, Scene};
-use crate::group::{self, Group, PAD_ID, WIDTH};
+use crate::group::WIDTH;
 use crate::ray::{Hit, Ray};
-use crate::simd::group::{
-    Gathered, GroupLanes, Pair, closest_in_group, intersect_group, intersect_group_watertight,
-};
+use crate::simd::group::{GroupLanes, Pair, closest_in_group, intersect_group_watertight};
 use crate::simd::kernels::PrimHits;
-use crate::simd::lanes::Lanes;
 use crate::watertight::{self, Shear};
 use glam::Vec3;
 
@@ -65,22 +62,13 @@ impl Query for Closest {
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
         if C::GROUPS {
             if let LeafPrims::Groups(groups) = prims {
-                if C::WATERTIGHT {
-                    // The watertight kernel takes the vertices, which a group does not hold:
-                    // its triangles gathered from the triangles section, two groups a test.
-                    for p in groups.chunks(2) {
-                        let (ids, n) = ids_of(p);
-                        self.gathered::<C>(scene, &ids[..n]);
-                    }
-                    return (self.query.tmax, false);
-                }
                 // Two groups at a time in the eight lanes, the last one alone.
                 let mut pairs = groups.chunks_exact(2);
                 for p in &mut pairs {
-                    self.group(Pair(&p[0], &p[1]), intersect_group);
+                    self.group::<C, _>(Pair(&p[0], &p[1]));
                 }
                 if let [g] = pairs.remainder() {
-                    self.group(g, intersect_group);
+                    self.group::<C, _>(g);
                 }
                 return (self.query.tmax, false);
             }
@@ -88,7 +76,11 @@ impl Query for Closest {
                 // A listed leaf's triangles gathered from the triangles section, eight at a
                 // time in two groups, the last four or fewer in one.
                 for ids in ids.chunks(2 * WIDTH) {
-                    self.gathered::<C>(scene, ids);
+                    if ids.len() > WIDTH {
+                        self.group::<C, _>(scene.gather8(ids));
+                    } else {
+                        self.group::<C, _>(scene.gather4(ids));
+                    }
                 }
                 return (self.query.tmax, false);
             }
@@ -98,28 +90,13 @@ impl Query for Closest {
 }
 
 impl Closest {
-    /// The triangles of `g` (a group, a pair of groups, gathered triangles) by `test`.
+    /// The triangles of `g`: a group, or a pair of groups.
     #[inline(always)]
-    fn group<G: GroupLanes>(&mut self, g: G, test: impl Fn(G, &Ray) -> PrimHits<G::L>) {
-        let found = test(g, &self.query);
+    fn group<C: Contents, G: GroupLanes>(&mut self, g: G) {
+        let found = intersect_group::<C, _>(g, &self.query, &self.shear);
         if let Some((t, u, v, prim)) = closest_in_group(g, &found) {
             self.query.tmax = t;
             self.best = Hit { t, prim, u, v };
-        }
-    }
-
-    /// Triangles `ids` (one to eight) gathered from the triangles section, in `C`'s mode.
-    #[inline(always)]
-    fn gathered<C: Contents>(&mut self, scene: &Scene, ids: &[u32]) {
-        let shear = self.shear;
-        if ids.len() > WIDTH {
-            self.group(scene.gather8(ids), |g, ray| {
-                gathered_hits::<C, _>(g, ray, &shear)
-            });
-        } else {
-            self.group(scene.gather4(ids), |g, ray| {
-                gathered_hits::<C, _>(g, ray, &shear)
-            });
         }
     }
 
@@ -169,35 +146,30 @@ impl Query for Occlusion {
     fn leaf<C: Contents>(&mut self, scene: &Scene, prims: LeafPrims) -> (f32, bool) {
         let (ray, shear) = (&self.ray, &self.shear);
         if C::GROUPS {
-            let gathered_any = |ids: &[u32]| {
-                if ids.len() > WIDTH {
-                    gathered_hits::<C, _>(scene.gather8(ids), ray, shear)
-                        .mask
-                        .any()
-                } else {
-                    gathered_hits::<C, _>(scene.gather4(ids), ray, shear)
-                        .mask
-                        .any()
-                }
-            };
             if let LeafPrims::Groups(groups) = prims {
-                self.found = if C::WATERTIGHT {
-                    groups.chunks(2).any(|p| {
-                        let (ids, n) = ids_of(p);
-                        gathered_any(&ids[..n])
-                    })
-                } else {
-                    let mut pairs = groups.chunks_exact(2);
-                    pairs.any(|p| intersect_group(Pair(&p[0], &p[1]), ray).mask.any())
-                        || pairs
-                            .remainder()
-                            .iter()
-                            .any(|g| intersect_group(g, ray).mask.any())
-                };
+                let mut pairs = groups.chunks_exact(2);
+                self.found = pairs.any(|p| {
+                    intersect_group::<C, _>(Pair(&p[0], &p[1]), ray, shear)
+                        .mask
+                        .any()
+                }) || pairs
+                    .remainder()
+                    .iter()
+                    .any(|g| intersect_group::<C, _>(g, ray, shear).mask.any());
                 return (self.ray.tmax, self.found);
             }
             if let LeafPrims::Many(ids) = prims {
-                self.found = ids.chunks(2 * WIDTH).any(gathered_any);
+                self.found = ids.chunks(2 * WIDTH).any(|ids| {
+                    if ids.len() > WIDTH {
+                        intersect_group::<C, _>(scene.gather8(ids), ray, shear)
+                            .mask
+                            .any()
+                    } else {
+                        intersect_group::<C, _>(scene.gather4(ids), ray, shear)
+                            .mask
+                            .any()
+                    }
+                });
                 return (self.ray.tmax, self.found);
             }
         }
@@ -401,36 +373,15 @@ impl Scene<'_> {
     }
 }
 
-/// One ray against triangles gathered from the triangles section, in `C`'s mode
+/// One ray against a group of four triangles, or a [`Pair`] of groups, in `C`'s mode
 /// ([`crate::simd::group`]).
 #[inline(always)]
-fn gathered_hits<C: Contents, L: Lanes>(
-    g: Gathered<'_, L>,
-    ray: &Ray,
-    shear: &Shear,
-) -> PrimHits<L> {
+fn intersect_group<C: Contents, G: GroupLanes>(g: G, ray: &Ray, shear: &Shear) -> PrimHits<G::L> {
     if C::WATERTIGHT {
         intersect_group_watertight(g, ray, shear)
     } else {
-        intersect_group(g, ray)
+        crate::simd::group::intersect_group(g, ray)
     }
-}
-
-/// The triangle ids of one or two of a grouped leaf's groups, in lane order, and how many there
-/// are (padding lanes, [`PAD_ID`], come only at the end of a leaf's last group).
-#[inline(always)]
-fn ids_of(groups: &[Group]) -> ([u32; 2 * WIDTH], usize) {
-    let mut ids = [PAD_ID; 2 * WIDTH];
-    let mut n = 0;
-    for g in groups {
-        for id in group::ids(g) {
-            if id != PAD_ID {
-                ids[n] = id;
-                n += 1;
-            }
-        }
-    }
-    (ids, n)
 }
 
 /// The ray's [`Shear`] when `C` is watertight; otherwise a constant that nothing reads.
