@@ -1,10 +1,17 @@
 //! Which instruction set this build's SIMD (`wide`) compiles to. `wide` chooses at compile time
 //! from the enabled target features, so this is a constant of the build, not of the machine.
 
-/// A short name: `avx2+fma`, `avx2`, `avx`, `sse4.1`, `sse2` on x86-64, `neon` on AArch64,
+/// A short name: `avx512f` (with AVX2 and FMA: 16-wide packets in one register), `avx2+fma`,
+/// `avx2`, `avx`, `sse4.1`, `sse2` on x86-64, `neon` on AArch64,
 /// `simd128` on wasm32, otherwise `scalar` (wide's portable fallback).
 pub const fn name() -> &'static str {
-    if cfg!(all(target_feature = "avx2", target_feature = "fma")) {
+    if cfg!(all(
+        target_feature = "avx512f",
+        target_feature = "avx2",
+        target_feature = "fma"
+    )) {
+        "avx512f"
+    } else if cfg!(all(target_feature = "avx2", target_feature = "fma")) {
         "avx2+fma"
     } else if cfg!(target_feature = "avx2") {
         "avx2"

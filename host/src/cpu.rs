@@ -4,14 +4,16 @@
 //! compile time); when the two differ, a build for this CPU would be faster (README, "Building
 //! from source": the default source build compiles for the CPU that builds it).
 
-/// The best of `avx2+fma`, `avx2`, `avx`, `sse4.1`, `sse2` that this x86 CPU supports, `neon` on
+/// The best of `avx512f`, `avx2+fma`, `avx2`, `avx`, `sse4.1`, `sse2` that this x86 CPU supports, `neon` on
 /// AArch64; elsewhere (wasm32, other architectures) what the build has,
 /// [`kdray_core::isa::name`].
 pub fn isa() -> &'static str {
     #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
     {
         use std::arch::is_x86_feature_detected as has;
-        if has!("avx2") && has!("fma") {
+        if has!("avx512f") && has!("avx2") && has!("fma") {
+            return "avx512f";
+        } else if has!("avx2") && has!("fma") {
             return "avx2+fma";
         } else if has!("avx2") {
             return "avx2";

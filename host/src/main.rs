@@ -130,7 +130,18 @@ fn main() -> ExitCode {
         Command::Info { file } => commands::info(&file),
         Command::Hits(args) => commands::hits(&args),
         Command::Accuracy(args) => commands::accuracy(&args),
-        Command::Trace(args) => commands::trace(&args),
+        Command::Trace(args) => {
+            if args.stream && args.packet == 16 {
+                Cli::command()
+                    .error(
+                        clap::error::ErrorKind::ArgumentConflict,
+                        "--stream takes packets of 1, 4 or 8 rays (--packet 16 traces \
+                         consecutive rays without the stream)",
+                    )
+                    .exit();
+            }
+            commands::trace(&args)
+        }
         Command::Rays {
             input,
             out,

@@ -40,8 +40,8 @@ __all__ = [
 CONTAINS_DIRECTION = tuple(float(x) for x in _kdray.CONTAINS_DIRECTION)
 
 #: The instruction set the extension's SIMD was compiled for, as ``kdray --version`` names it
-#: (``'avx2+fma'``, ``'avx'``, ``'sse2'``, ...): a build from source compiles for the CPU that
-#: builds it (the repository's ``.cargo/config.toml``), a portable wheel for SSE2.
+#: (``'avx512f'``, ``'avx2+fma'``, ``'avx'``, ``'sse2'``, ...): a build from source compiles for
+#: the CPU that builds it (the repository's ``.cargo/config.toml``), a portable wheel for SSE2.
 ISA: str = _kdray.ISA
 
 try:

@@ -18,7 +18,7 @@ use kdray::flat::{Layout, Leaves, serialize_as};
 use kdray_core::group::pack;
 use kdray_core::simd::group::{intersect_group, intersect_group_watertight};
 use kdray_core::simd::{
-    Lanes, RayPacket, ShearX, f32x4, f32x8, intersect_triangle_watertight, kernels,
+    Lanes, RayPacket, ShearX, f32x4, f32x8, f32x16, intersect_triangle_watertight, kernels,
 };
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Config, Packets};
@@ -170,8 +170,9 @@ fn packet_lane<L: Lanes>(v: &[Vec3; 3], ray: &Ray, mode: Mode, lane: usize) -> B
 }
 
 /// Every triangle kernel of `mode` on one ray and triangle: the scalar kernel's answer, after
-/// asserting that lane 3 of a 4-wide packet, lane 5 of an 8-wide one (the ray in every lane) and
-/// lane 2 of a group (the triangle in every lane) return exactly the same bits.
+/// asserting that lane 3 of a 4-wide packet, lane 5 of an 8-wide one, lane 13 of a 16-wide one
+/// (the ray in every lane) and lane 2 of a group (the triangle in every lane) return exactly the
+/// same bits.
 fn every_kernel(v: &[Vec3; 3], ray: &Ray, mode: Mode) -> Option<(f32, f32, f32)> {
     let tri = Triangle::from_vertices(v[0], v[1], v[2]);
     let scalar = match mode {
@@ -189,6 +190,7 @@ fn every_kernel(v: &[Vec3; 3], ray: &Ray, mode: Mode) -> Option<(f32, f32, f32)>
     for (name, got) in [
         ("x4", packet_lane::<f32x4>(v, ray, mode, 3)),
         ("x8", packet_lane::<f32x8>(v, ray, mode, 5)),
+        ("x16", packet_lane::<f32x16>(v, ray, mode, 13)),
         ("group", bits(group)),
     ] {
         assert_eq!(

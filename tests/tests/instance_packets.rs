@@ -1,4 +1,4 @@
-//! The two-level walk for packets (4 and 8 lanes) and streams (`kdray_core::instance::packet`,
+//! The two-level walk for packets (4, 8 and 16 lanes) and streams (`kdray_core::instance::packet`,
 //! `kdray_core::instance::stream`) against the single-ray two-level walk, ray by ray, in both
 //! modes, with random transforms (mirrors, shears, scales from 10⁻⁶ to 10⁶): the same `t` bits,
 //! the same instance, user id and primitive, or, where two tie at exactly that `t`, one that the
@@ -9,7 +9,7 @@ use glam::Vec3;
 use kdray::instances::{Placement, top_level};
 use kdray_core::instance::walk::into_instance;
 use kdray_core::instance::{Affine, InstanceHit, InstancedScene, stream};
-use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
+use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8, f32x16};
 use kdray_core::traverse::stream::{Config, Packets, scratch_words};
 use kdray_core::traverse::{Mode, Triangles, Watertight};
 use kdray_core::{Ray, Scene};
@@ -113,6 +113,7 @@ fn check_all(top: &InstancedScene, rays: &[Ray]) -> Result<(), TestCaseError> {
         let any: Vec<bool> = rays.iter().map(|r| top.occluded_in(mode, r)).collect();
         check_packets::<f32x4>(top, rays, mode, &want, &any)?;
         check_packets::<f32x8>(top, rays, mode, &want, &any)?;
+        check_packets::<f32x16>(top, rays, mode, &want, &any)?;
         for packets in [Packets::Off, Packets::Four, Packets::Eight] {
             let config = Config {
                 mode,
@@ -153,7 +154,7 @@ fn check_packets<L: Lanes>(
     };
     for (c, chunk) in rays.chunks(L::WIDTH).enumerate() {
         let packet = RayPacket::<L>::from_rays(chunk);
-        let mut out = [sentinel; 8];
+        let mut out = [sentinel; 16];
         top.intersect_packet_in(mode, &packet)
             .write_active(&packet, &mut out[..L::WIDTH]);
         let occluded = top.occluded_packet_in(mode, &packet).bitmask();

@@ -1,9 +1,9 @@
-//! Packet traversal (4 and 8 lanes) against scalar traversal, ray by ray, on random scenes:
+//! Packet traversal (4, 8 and 16 lanes) against scalar traversal, ray by ray, on random scenes:
 //! the same primitive and the same `t` (exactly: the packet kernels round as the scalar ones do),
 //! or, where two primitives tie at that `t`, either of them; occlusion the same per lane; inactive
 //! lanes never written.
 
-use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
+use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8, f32x16};
 use kdray_core::traverse::{Mixed, Mode, Watertight};
 use kdray_core::{Hit, Scene};
 use kdray_tests::strategies::{grid_geometry, packet_rays as rays, scene_words};
@@ -17,11 +17,13 @@ macro_rules! packet_matches_scalar {
             fn $name(geom in grid_geometry(4), isect in prop_oneof![Just(80.0), Just(4.0)], packets in prop::collection::vec(rays(), 1..12)) {
                 let words = scene_words(&geom, isect);
                 let scene = Scene::from_words(&words).unwrap();
-                for rays in &packets {
+                // Up to eight rays a set: 16 lanes take two sets at once, so that packets are full.
+                let sets: Vec<Vec<_>> = packets.chunks(($w / 8).max(1)).map(|p| p.concat()).collect();
+                for rays in &sets {
                     for chunk in rays.chunks($w) {
                         let packet = RayPacket::<$lanes>::from_rays(chunk);
                         let sentinel = Hit { t: -7.0, prim: 77, u: 7.0, v: 7.0 };
-                        let mut out = [sentinel; 8];
+                        let mut out = [sentinel; 16];
                         scene.intersect_packet_in($mode, &packet).write_active(&packet, &mut out[..$w]);
                         let occluded = scene.occluded_packet_in($mode, &packet).bitmask();
                         for (i, ray) in chunk.iter().enumerate() {
@@ -50,6 +52,7 @@ macro_rules! packet_matches_scalar {
 
 packet_matches_scalar!(packet4_matches_scalar, f32x4, 4, Mode::Fast, Mixed);
 packet_matches_scalar!(packet8_matches_scalar, f32x8, 8, Mode::Fast, Mixed);
+packet_matches_scalar!(packet16_matches_scalar, f32x16, 16, Mode::Fast, Mixed);
 // Watertight mode: the packet walks against the scalar walk, both watertight.
 packet_matches_scalar!(
     watertight_packet4_matches_scalar,
@@ -62,6 +65,13 @@ packet_matches_scalar!(
     watertight_packet8_matches_scalar,
     f32x8,
     8,
+    Mode::Watertight,
+    Watertight<Mixed>
+);
+packet_matches_scalar!(
+    watertight_packet16_matches_scalar,
+    f32x16,
+    16,
     Mode::Watertight,
     Watertight<Mixed>
 );

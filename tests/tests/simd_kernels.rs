@@ -14,7 +14,7 @@
 
 use glam::Vec3;
 use kdray_core::simd::{
-    HitPacket, Lanes, PrimHits, RayPacket, ShearX, f32x4, f32x8, intersect_sphere,
+    HitPacket, Lanes, PrimHits, RayPacket, ShearX, f32x4, f32x8, f32x16, intersect_sphere,
     intersect_triangle, intersect_triangle_watertight, record_closest,
 };
 use kdray_core::{Hit, Ray, Sphere, Triangle, math, watertight};
@@ -193,7 +193,7 @@ fn check_closest<L: Lanes>(prims: &[Prim], rays: &[Ray]) -> Result<(), TestCaseE
         let found = prim.packet(&packet);
         record_closest(&mut hits, &mut packet, &found, k as u32);
     }
-    let mut out = [SENTINEL; 8];
+    let mut out = [SENTINEL; 16];
     hits.write_active(&packet, &mut out[..rays.len()]);
     for (i, ray) in rays.iter().enumerate() {
         if !ray.is_finite() {
@@ -816,3 +816,4 @@ macro_rules! lane_tests {
 
 lane_tests!(x4, f32x4);
 lane_tests!(x8, f32x8);
+lane_tests!(x16, f32x16);

@@ -18,7 +18,7 @@ use crate::ray::Ray;
 use core::fmt::Debug;
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 use glam::Vec3;
-use wide::{f32x4, f32x8, u32x4, u32x8};
+use wide::{f32x4, f32x8, f32x16, u32x4, u32x8, u32x16};
 
 /// `W` `f32` lanes, and `W` `u32` lanes for primitive indices. Implemented for [`f32x4`] and
 /// [`f32x8`]; kernels are written once, generic over it.
@@ -254,6 +254,7 @@ macro_rules! impl_lanes {
 
 impl_lanes!(f32x4, u32x4, 4, columns4);
 impl_lanes!(f32x8, u32x8, 8, columns8);
+impl_lanes!(f32x16, u32x16, 16, columns16);
 
 /// A ray's eight floats in the order of [`Lanes::ray_columns`].
 #[inline(always)]
@@ -266,6 +267,20 @@ fn ray_row(r: &Ray) -> [f32; 8] {
 #[inline(always)]
 fn columns8(rays: &[Ray; 8]) -> [f32x8; 8] {
     f32x8::transpose(rays.each_ref().map(|r| f32x8::new(ray_row(r))))
+}
+
+/// Sixteen rays: two 8×8 transposes, of the first and the last eight rays, side by side.
+#[inline(always)]
+fn columns16(rays: &[Ray; 16]) -> [f32x16; 8] {
+    let half =
+        |at: usize| f32x8::transpose(core::array::from_fn(|i| f32x8::new(ray_row(&rays[at + i]))));
+    let (a, b) = (half(0), half(8));
+    core::array::from_fn(|k| {
+        let (a, b) = (a[k].to_array(), b[k].to_array());
+        f32x16::new(core::array::from_fn(
+            |i| if i < 8 { a[i] } else { b[i - 8] },
+        ))
+    })
 }
 
 /// Four rays: two 4×4 transposes, of their first and last four floats.

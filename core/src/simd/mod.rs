@@ -46,7 +46,7 @@ pub use packet::{HitPacket, RayPacket};
 pub use watertight::{
     ShearX, intersect_triangle_watertight, intersect_triangle_watertight_prepared,
 };
-pub use wide::{f32x4, f32x8};
+pub use wide::{f32x4, f32x8, f32x16};
 
 /// A 4-wide ray packet.
 pub type RayPacket4 = RayPacket<f32x4>;

@@ -4,7 +4,7 @@ use super::build::{BuildArgs, load_scene_words};
 use super::{parse_threads, pool};
 use kdray::error::{Error, Result};
 use kdray::{files, rays};
-use kdray_core::simd::{f32x4, f32x8};
+use kdray_core::simd::{f32x4, f32x8, f32x16};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::{self, Packets};
 use kdray_core::{Hit, Ray, Scene};
@@ -36,7 +36,9 @@ pub struct TraceArgs {
     /// --instances IDS.bin` prints them beside the hits.
     #[arg(long, value_name = "IDS.bin")]
     pub instances: Option<PathBuf>,
-    /// Rays per packet: 1 (single rays), or 4 or 8 consecutive rays traced together.
+    /// Rays per packet: 1 (single rays), or 4, 8 or 16 consecutive rays traced together (16: one
+    /// AVX-512 register a value where the build has it, else two AVX registers; not with
+    /// `--stream`).
     #[arg(long, default_value_t = 1, value_parser = parse_packet)]
     pub packet: u32,
     /// Trace through the core's ray-stream API (`kdray_core::traverse::stream`): coherent runs as
@@ -98,6 +100,7 @@ fn trace_all(scene: &Scene, rays: &[Ray], hits: &mut [Hit], how: Tracer) {
         .for_each(|(h, r)| match how.packet {
             4 => rays::trace_packets_in::<f32x4>(scene, mode, r, h),
             8 => rays::trace_packets_in::<f32x8>(scene, mode, r, h),
+            16 => rays::trace_packets_in::<f32x16>(scene, mode, r, h),
             _ => rays::trace_scalar_in(scene, mode, r, h),
         });
 }
@@ -234,7 +237,8 @@ pub fn parse_packet(s: &str) -> core::result::Result<u32, String> {
         "1" => Ok(1),
         "4" => Ok(4),
         "8" => Ok(8),
-        _ => Err(format!("packet width must be 1, 4 or 8, got '{s}'")),
+        "16" => Ok(16),
+        _ => Err(format!("packet width must be 1, 4, 8 or 16, got '{s}'")),
     }
 }
 

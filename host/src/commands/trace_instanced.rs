@@ -1,7 +1,7 @@
 //! `kdray trace` on a scene file with `[[instance]]` entries: one tree per mesh (built as
 //! `--leaves`, `--layout` and the build options say), the top level over the copies
 //! ([`kdray::instances::top_level`]), the rays through the two-level walk: one at a time
-//! ([`InstancedScene::intersect_in`]), in packets of `--packet 4`/`8` of consecutive rays
+//! ([`InstancedScene::intersect_in`]), in packets of `--packet 4`/`8`/`16` of consecutive rays
 //! ([`InstancedScene::intersect_packet_in`]), or as a stream (`--stream`,
 //! [`kdray_core::instance::stream`]), the same hits each way. The hits file is the single-mesh one, `prim` the
 //! primitive's index in its mesh's input order; `--instances` writes each hit's instance id (the
@@ -14,7 +14,7 @@ use kdray::error::{Error, Result};
 use kdray::scene::SceneFile;
 use kdray::{files, rays};
 use kdray_core::instance::{InstanceHit, InstancedScene, stream};
-use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8};
+use kdray_core::simd::{Lanes, RayPacket, f32x4, f32x8, f32x16};
 use kdray_core::traverse::Mode;
 use kdray_core::traverse::stream::scratch_words;
 use kdray_core::{Hit, Ray, Scene};
@@ -130,6 +130,7 @@ fn trace_all(
         .for_each(|(h, r)| match args.packet {
             4 => packets::<f32x4>(scene, mode, r, h),
             8 => packets::<f32x8>(scene, mode, r, h),
+            16 => packets::<f32x16>(scene, mode, r, h),
             _ => kdray::instances::trace_rays(scene, mode, r, h),
         });
 }

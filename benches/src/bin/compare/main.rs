@@ -21,7 +21,7 @@ use args::{Command, USAGE};
 use kdray_benches::median;
 use kdray_benches::peer_bvh::BvhPeer;
 use kdray_benches::setup::{Workload, to_input_ids, trace_packets, trace_scalar};
-use kdray_core::simd::{f32x4, f32x8};
+use kdray_core::simd::{f32x4, f32x8, f32x16};
 use kdray_core::{Hit, Ray};
 use report::{Family, Row};
 use std::time::Instant;
@@ -117,6 +117,10 @@ fn main() {
     });
     run("kdray packet 8", Family::Kdray, None, &mut |r, h| {
         trace_packets::<f32x8>(&scene, r, h);
+        to_input_ids(&scene, h);
+    });
+    run("kdray packet 16", Family::Kdray, None, &mut |r, h| {
+        trace_packets::<f32x16>(&scene, r, h);
         to_input_ids(&scene, h);
     });
     // The ray-stream API with its defaults (same-octant 8-wide packets, 16 single-ray walks in
