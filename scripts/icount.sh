@@ -10,7 +10,7 @@
 # 128x128 framing camera and one diffuse bounce from each primary hit. The `instances` rows trace
 # host/scenes/instances.toml (101 bunnies under a top level: the two-level walk, single rays and
 # 8-wide packets) with the primary rays of its own 128x128 framing camera. Each row traces one ray set
-# through one tree one way (`--packet 1/4/8`, `--stream`), fast and watertight, on one thread,
+# through one tree one way (`--packet 1/4/8/16`, `--stream`), fast and watertight, on one thread,
 # with callgrind counting only the functions that trace a share of the rays (`trace_scalar_in`,
 # `trace_packets_in`, the core's `stream::intersect`; for instances `instances::trace_rays` and
 # the trace command's `packets`): not the load, the build, the threads or
@@ -93,7 +93,7 @@ count() {
 }
 
 rows=(
-  "list primary packet1" "list primary packet4" "list primary packet8"
+  "list primary packet1" "list primary packet4" "list primary packet8" "list primary packet16"
   "list diffuse packet1" "list diffuse packet4" "list diffuse packet8"
   "groups primary packet8" "groups diffuse packet8"
   "wide primary packet1" "wide primary stream" "wide diffuse packet1" "wide diffuse stream"
