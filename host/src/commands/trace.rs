@@ -37,8 +37,8 @@ pub struct TraceArgs {
     #[arg(long, value_name = "IDS.bin")]
     pub instances: Option<PathBuf>,
     /// Rays per packet: 1 (single rays), or 4, 8 or 16 consecutive rays traced together (16: one
-    /// AVX-512 register a value where the build has it, else two AVX registers; not with
-    /// `--stream`).
+    /// AVX-512 register a value, the fastest for camera rays where the build has AVX-512, see
+    /// `kdray --version`; elsewhere two registers, slower than 8; not with `--stream`).
     #[arg(long, default_value_t = 1, value_parser = parse_packet)]
     pub packet: u32,
     /// Trace through the core's ray-stream API (`kdray_core::traverse::stream`): coherent runs as
