@@ -1,5 +1,5 @@
-//! The lane trait the packet kernels are written against, its two implementations
-//! ([`f32x4`], [`f32x8`]), and [`Vec3x`], a struct-of-arrays 3-vector of lanes.
+//! The lane trait the packet kernels are written against, its three implementations
+//! ([`f32x4`], [`f32x8`], [`f32x16`]), and [`Vec3x`], a struct-of-arrays 3-vector of lanes.
 //!
 //! # Masks
 //! As in `wide`, a mask is a value of the lane type itself whose lanes are all ones (true) or all
@@ -20,8 +20,8 @@ use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 use glam::Vec3;
 use wide::{f32x4, f32x8, f32x16, u32x4, u32x8, u32x16};
 
-/// `W` `f32` lanes, and `W` `u32` lanes for primitive indices. Implemented for [`f32x4`] and
-/// [`f32x8`]; kernels are written once, generic over it.
+/// `W` `f32` lanes, and `W` `u32` lanes for primitive indices. Implemented for [`f32x4`],
+/// [`f32x8`] and [`f32x16`]; kernels are written once, generic over it.
 pub trait Lanes:
     Copy
     + Debug
@@ -111,7 +111,7 @@ pub trait Lanes:
     fn select_index(self, if_true: Self::Index, if_false: Self::Index) -> Self::Index;
 }
 
-/// One implementation for both widths: they differ only in names and `W`.
+/// One implementation for every width: they differ only in names and `W`.
 macro_rules! impl_lanes {
     ($f:ident, $u:ident, $w:literal, $columns:ident) => {
         impl Lanes for $f {
