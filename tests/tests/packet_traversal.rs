@@ -17,8 +17,10 @@ macro_rules! packet_matches_scalar {
             fn $name(geom in grid_geometry(4), isect in prop_oneof![Just(80.0), Just(4.0)], packets in prop::collection::vec(rays(), 1..12)) {
                 let words = scene_words(&geom, isect);
                 let scene = Scene::from_words(&words).unwrap();
-                // Up to eight rays a set: 16 lanes take two sets at once, so that packets are full.
-                let sets: Vec<Vec<_>> = packets.chunks(($w / 8).max(1)).map(|p| p.concat()).collect();
+                // Up to eight rays a set: 16 lanes take all the sets as one, so that most of their
+                // packets are whole ones (the transposing load), each of several sets.
+                let per = if $w > 8 { packets.len() } else { 1 };
+                let sets: Vec<Vec<_>> = packets.chunks(per).map(|p| p.concat()).collect();
                 for rays in &sets {
                     for chunk in rays.chunks($w) {
                         let packet = RayPacket::<$lanes>::from_rays(chunk);
